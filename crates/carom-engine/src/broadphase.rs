@@ -1,0 +1,77 @@
+//! Broad phase: which pairs of particles overlap. Two implementations sit behind one trait,
+//! [`brute`](crate::brute) (the lecture's O(n^2) baseline) and [`grid`](crate::grid) (the
+//! lecture's hash grid).
+//!
+//! Contract shared by both: the output is *every* pair `(i, j)` with `i < j` whose centres are
+//! closer than `r_i + r_j`, sorted ascending, and nothing else. Because the set is exact and the
+//! order canonical, the solver sees the same contacts whichever broad phase found them, and the
+//! trajectories of grid and brute force are bit-identical.
+
+use crate::vector::Vector;
+use rayon::prelude::*;
+
+/// A contact candidate: two particle ids, lower first.
+pub type Pair = (u32, u32);
+
+/// Finds overlapping pairs.
+pub trait BroadPhase<V: Vector>: Send + Sync {
+    /// Replaces `pairs` with every overlapping pair `(i, j)`, `i < j`, sorted ascending.
+    fn find_pairs(&mut self, positions: &[V], radii: &[f64], pairs: &mut Vec<Pair>);
+
+    /// Short name for reports ("brute", "grid").
+    fn name(&self) -> &'static str;
+
+    /// Cells per axis in use (1 on unused axes), or `None` when there is no grid.
+    fn cells(&self) -> Option<[usize; 3]> {
+        None
+    }
+}
+
+/// Which broad phase a world uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum BroadPhaseKind {
+    /// All pairs: O(n^2).
+    Brute,
+    /// The lecture's uniform grid over the domain; `cells` per axis, or derived from the
+    /// largest radius when `None`.
+    #[default]
+    Grid,
+}
+
+/// Particles per work unit in parallel pair searches. Fixed (not derived from the thread count)
+/// so that the work split, and therefore every intermediate result, is the same for any number
+/// of threads.
+pub(crate) const CHUNK: usize = 1024;
+
+/// Runs `search(i, out)` for every particle, in parallel over fixed chunks, each chunk
+/// writing into its own reused buffer, then concatenates the buffers in chunk order into
+/// `pairs`. `search` must push pairs `(i, j)` with `j > i`; each chunk is sorted, so the
+/// result is globally sorted.
+pub(crate) fn collect_pairs<F>(
+    n: usize,
+    buffers: &mut Vec<Vec<Pair>>,
+    pairs: &mut Vec<Pair>,
+    search: F,
+) where
+    F: Fn(usize, &mut Vec<Pair>) + Sync,
+{
+    let chunks = n.div_ceil(CHUNK);
+    if buffers.len() < chunks {
+        buffers.resize_with(chunks, Vec::new);
+    }
+    buffers[..chunks]
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(c, out)| {
+            out.clear();
+            let end = ((c + 1) * CHUNK).min(n);
+            for i in c * CHUNK..end {
+                search(i, out);
+            }
+            out.sort_unstable();
+        });
+    pairs.clear();
+    for b in &buffers[..chunks] {
+        pairs.extend_from_slice(b);
+    }
+}

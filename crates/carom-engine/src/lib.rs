@@ -1,0 +1,55 @@
+//! # carom-engine
+//!
+//! A particle collision engine that implements the lecture "Collision Detection and Response"
+//! exactly, in 2D and 3D, with no I/O: data in, data out.
+//!
+//! Where each idea of the lecture lives:
+//!
+//! | lecture | module |
+//! |---|---|
+//! | detection `distance < r1 + r2`, normal/tangent split, mass-weighted response with restitution, the trap rule `p_rel . v_rel < 0` | [`response`] |
+//! | particle-plane rule `(x - p) . n < r && n . v < 0`, `V' = V_T - k V_N` | [`plane`] |
+//! | the hash grid (normalise, scale, clamp, floor; buckets; neighbour cells) | [`grid`] |
+//! | brute force, O(n^2) | [`brute`] |
+//! | many simultaneous contacts, pushing trapped particles apart | [`solver`] |
+//! | the particle system stepped in time under gravity | [`world`] |
+//!
+//! ```
+//! use carom_engine::{World, glam::DVec2};
+//!
+//! // The lecture's example #2: m2 = 2 m1, moving at each other.
+//! let n = DVec2::new(3f64.sqrt() / 2.0, -0.5);
+//! let mut world = World::builder()
+//!     .dt(1e-9)
+//!     .particle(DVec2::ZERO, DVec2::new(20.0, 0.0), 1.0, 1.0)
+//!     .particle(n * 1.9, DVec2::new(-10.0, 0.0), 1.0, 2.0)
+//!     .build()
+//!     .unwrap();
+//! let momentum = world.momentum();
+//! world.step();
+//! assert!((world.momentum() - momentum).length() < 1e-9);
+//! ```
+#![warn(missing_docs)]
+
+pub mod broadphase;
+pub mod brute;
+pub mod diagnostics;
+pub mod domain;
+pub mod error;
+pub mod grid;
+pub mod particles;
+pub mod plane;
+pub mod response;
+pub mod solver;
+pub mod vector;
+pub mod world;
+
+pub use broadphase::{BroadPhase, BroadPhaseKind, Pair};
+pub use diagnostics::StepStats;
+pub use domain::Aabb;
+pub use error::EngineError;
+pub use glam;
+pub use particles::Particles;
+pub use plane::Plane;
+pub use vector::Vector;
+pub use world::{World, WorldBuilder, WorldConfig};

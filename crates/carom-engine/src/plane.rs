@@ -1,0 +1,161 @@
+//! Particle-plane collisions: the lecture's plane rule.
+//!
+//! A plane is a point `p` and a unit normal `n` pointing into the allowed half-space. A particle
+//! at `x` with radius `r` and velocity `v` collides when `(x - p) . n < r` (it touches or
+//! crosses the plane) *and* `n . v < 0` (it is heading deeper in). The response replaces the
+//! velocity with `V' = V_T - k V_N`.
+
+use crate::error::EngineError;
+use crate::response::split_normal_tangent;
+use crate::vector::Vector;
+
+/// An infinite plane that particles bounce off.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plane<V> {
+    point: V,
+    normal: V,
+    restitution: f64,
+}
+
+impl<V: Vector> Plane<V> {
+    /// A plane through `point` facing `normal` (any non-zero length; it is normalised) with
+    /// restitution `k` in [0, 1].
+    pub fn new(point: V, normal: V, restitution: f64) -> Result<Self, EngineError> {
+        if !point.is_finite_vector() || !normal.is_finite_vector() {
+            return Err(EngineError::NonFinite("plane"));
+        }
+        let length = normal.length_squared().sqrt();
+        if length.is_nan() || length == 0.0 || !length.is_finite() {
+            return Err(EngineError::ZeroPlaneNormal);
+        }
+        check_restitution(restitution)?;
+        Ok(Self {
+            point,
+            normal: normal * (1.0 / length),
+            restitution,
+        })
+    }
+
+    /// A point on the plane.
+    pub fn point(&self) -> V {
+        self.point
+    }
+
+    /// The unit normal, pointing into the allowed side.
+    pub fn normal(&self) -> V {
+        self.normal
+    }
+
+    /// Coefficient of restitution `k` in [0, 1].
+    pub fn restitution(&self) -> f64 {
+        self.restitution
+    }
+
+    /// `(x - p) . n`: how far `x` is on the allowed side (negative behind the plane).
+    #[inline]
+    pub fn signed_distance(&self, x: V) -> f64 {
+        (x - self.point).dot(self.normal)
+    }
+
+    /// The lecture's detection: `(x - p) . n < r && n . v < 0`.
+    #[inline]
+    pub fn is_colliding(&self, x: V, v: V, radius: f64) -> bool {
+        self.signed_distance(x) < radius && self.normal.dot(v) < 0.0
+    }
+
+    /// The lecture's response `V' = V_T - k V_N`.
+    #[inline]
+    pub fn bounce(&self, v: V) -> V {
+        let parts = split_normal_tangent(v, self.normal);
+        parts.tangent - parts.normal * self.restitution
+    }
+
+    /// Where a particle at `x` must move so that it just touches the plane (`x` itself when it
+    /// is already clear).
+    #[inline]
+    pub fn push_out(&self, x: V, radius: f64) -> V {
+        let depth = radius - self.signed_distance(x);
+        if depth > 0.0 {
+            x + self.normal * depth
+        } else {
+            x
+        }
+    }
+}
+
+pub(crate) fn check_restitution(k: f64) -> Result<(), EngineError> {
+    if (0.0..=1.0).contains(&k) {
+        Ok(())
+    } else {
+        Err(EngineError::Restitution(k))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DVec2, DVec3};
+
+    fn floor(k: f64) -> Plane<DVec2> {
+        Plane::new(DVec2::new(0.0, -50.0), DVec2::new(0.0, 3.0), k).unwrap()
+    }
+
+    #[test]
+    fn normal_is_normalised() {
+        assert_eq!(floor(1.0).normal(), DVec2::Y);
+    }
+
+    #[test]
+    fn zero_normal_is_rejected() {
+        assert!(matches!(
+            Plane::new(DVec2::ZERO, DVec2::ZERO, 0.5),
+            Err(EngineError::ZeroPlaneNormal)
+        ));
+        assert!(Plane::new(DVec2::ZERO, DVec2::new(f64::NAN, 1.0), 0.5).is_err());
+        assert!(Plane::new(DVec2::ZERO, DVec2::Y, 1.5).is_err());
+    }
+
+    #[test]
+    fn detection_needs_contact_and_approach() {
+        let p = floor(1.0);
+        let down = DVec2::new(3.0, -4.0);
+        assert!(p.is_colliding(DVec2::new(0.0, -49.5), down, 1.0));
+        assert!(
+            !p.is_colliding(DVec2::new(0.0, -49.5), -down, 1.0),
+            "moving away"
+        );
+        assert!(
+            !p.is_colliding(DVec2::new(0.0, -48.0), down, 1.0),
+            "clear of it"
+        );
+    }
+
+    #[test]
+    fn bounce_is_tangent_minus_k_normal() {
+        for k in [0.0, 0.5, 0.8, 1.0] {
+            let v = floor(k).bounce(DVec2::new(3.0, -4.0));
+            assert!(
+                (v - DVec2::new(3.0, 4.0 * k)).length() < 1e-12,
+                "k={k}: {v}"
+            );
+        }
+        // a tilted plane in 3D: V_T kept, V_N reversed and scaled
+        let n = DVec3::new(1.0, 1.0, 0.0).normalize();
+        let plane = Plane::new(DVec3::ZERO, n, 0.5).unwrap();
+        let v = DVec3::new(-2.0, 0.0, 1.0);
+        let after = plane.bounce(v);
+        let vn = n * n.dot(v);
+        assert!((after - ((v - vn) - vn * 0.5)).length() < 1e-12);
+    }
+
+    #[test]
+    fn push_out_moves_to_contact() {
+        let p = floor(1.0);
+        let x = p.push_out(DVec2::new(2.0, -52.0), 1.0);
+        assert!((x - DVec2::new(2.0, -49.0)).length() < 1e-12);
+        assert_eq!(
+            p.push_out(DVec2::new(2.0, -10.0), 1.0),
+            DVec2::new(2.0, -10.0)
+        );
+    }
+}
