@@ -1,1 +1,315 @@
-//! stub
+//! # carom-scene
+//!
+//! TOML scene files for carom: [`load`] reads one, checks every value and builds the particle
+//! set (including `[[fill]]` blocks), returning an [`AnyScene`] in 2D or 3D. Every error is a
+//! [`SceneError`] that names the file and the field. The format is documented in the
+//! repository's `docs/scene-format.md`.
+#![warn(missing_docs)]
+
+mod error;
+mod fill;
+mod presets;
+mod raw;
+
+pub use error::SceneError;
+pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
+
+use carom_engine::glam::{DVec2, DVec3};
+use carom_engine::grid::MAX_CELLS;
+use carom_engine::world::{DEFAULT_POSITION_ITERATIONS, DEFAULT_VELOCITY_ITERATIONS};
+use carom_engine::{
+    Aabb, BroadPhaseKind, EngineError, Particles, Plane, Vector, World, WorldConfig,
+};
+use raw::{RawBroadPhaseKind, RawScene};
+use std::path::Path;
+
+/// Steps run when a scene gives no `steps`.
+pub const DEFAULT_STEPS: u64 = 1000;
+
+/// A checked scene in `V`'s dimension, ready to become a [`World`].
+#[derive(Debug, Clone)]
+pub struct Scene<V: Vector> {
+    /// `name` from the file, if any.
+    pub name: Option<String>,
+    /// `description` from the file, if any.
+    pub description: Option<String>,
+    /// Steps to run.
+    pub steps: u64,
+    /// Engine settings.
+    pub config: WorldConfig<V>,
+    /// Restitution of the domain walls, when `[domain] walls = true`.
+    pub walls: Option<f64>,
+    /// Extra planes (`[[planes]]`).
+    pub planes: Vec<Plane<V>>,
+    /// Every particle: explicit ones first, then each fill in order.
+    pub particles: Particles<V>,
+}
+
+impl<V: Vector> Scene<V> {
+    /// Builds the world. Cannot fail for a scene that [`load`] or [`parse`] accepted unless the
+    /// fields were changed afterwards.
+    pub fn build_world(&self) -> Result<World<V>, EngineError> {
+        let mut b = World::builder()
+            .dt(self.config.dt)
+            .gravity(self.config.gravity)
+            .restitution(self.config.restitution)
+            .iterations(
+                self.config.velocity_iterations,
+                self.config.position_iterations,
+            )
+            .broad_phase(self.config.broad_phase)
+            .particles(self.particles.clone());
+        if let Some(d) = self.config.domain {
+            b = b.domain(d);
+        }
+        if let Some(c) = &self.config.grid_cells {
+            b = b.grid_cells(c);
+        }
+        if let Some(k) = self.walls {
+            b = b.walls(k);
+        }
+        for p in &self.planes {
+            b = b.plane(*p);
+        }
+        b.build()
+    }
+}
+
+/// A scene of either dimension.
+#[derive(Debug, Clone)]
+pub enum AnyScene {
+    /// `dimensions = 2`
+    Two(Scene<DVec2>),
+    /// `dimensions = 3`
+    Three(Scene<DVec3>),
+}
+
+impl AnyScene {
+    /// 2 or 3.
+    pub fn dimensions(&self) -> usize {
+        match self {
+            AnyScene::Two(_) => 2,
+            AnyScene::Three(_) => 3,
+        }
+    }
+}
+
+/// Reads and checks the scene file at `path`.
+pub fn load(path: &Path) -> Result<AnyScene, SceneError> {
+    let origin = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+        origin: origin.clone(),
+        field: None,
+        message: format!("cannot read scene file: {e}"),
+    })?;
+    parse(&text, &origin)
+}
+
+/// Checks scene text; `origin` names it in errors (a path, or `preset:NAME`).
+pub fn parse(text: &str, origin: &str) -> Result<AnyScene, SceneError> {
+    let raw: RawScene = toml::from_str(text).map_err(|e| SceneError {
+        origin: origin.to_string(),
+        field: None,
+        message: e.to_string().trim_end().to_string(),
+    })?;
+    let ctx = Ctx { origin };
+    match raw.dimensions {
+        2 => Ok(AnyScene::Two(build::<DVec2>(&ctx, raw)?)),
+        3 => Ok(AnyScene::Three(build::<DVec3>(&ctx, raw)?)),
+        d => Err(ctx.err("dimensions", format!("must be 2 or 3, got {d}"))),
+    }
+}
+
+pub(crate) struct Ctx<'a> {
+    pub origin: &'a str,
+}
+
+impl Ctx<'_> {
+    pub(crate) fn err(&self, field: impl Into<String>, message: impl Into<String>) -> SceneError {
+        SceneError {
+            origin: self.origin.to_string(),
+            field: Some(field.into()),
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn vector<V: Vector>(&self, field: &str, values: &[f64]) -> Result<V, SceneError> {
+        if values.len() != V::DIM {
+            return Err(self.err(
+                field,
+                format!(
+                    "needs {} components (dimensions = {}), got {}",
+                    V::DIM,
+                    V::DIM,
+                    values.len()
+                ),
+            ));
+        }
+        if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
+            return Err(self.err(field, format!("must be finite, got {bad}")));
+        }
+        Ok(V::from_slice(values))
+    }
+
+    pub(crate) fn positive(&self, field: &str, value: f64) -> Result<f64, SceneError> {
+        if value.is_finite() && value > 0.0 {
+            Ok(value)
+        } else {
+            Err(self.err(field, format!("must be a finite number > 0, got {value}")))
+        }
+    }
+
+    pub(crate) fn non_negative(&self, field: &str, value: f64) -> Result<f64, SceneError> {
+        if value.is_finite() && value >= 0.0 {
+            Ok(value)
+        } else {
+            Err(self.err(field, format!("must be a finite number >= 0, got {value}")))
+        }
+    }
+
+    pub(crate) fn restitution(&self, field: &str, value: f64) -> Result<f64, SceneError> {
+        if (0.0..=1.0).contains(&value) {
+            Ok(value)
+        } else {
+            Err(self.err(field, format!("must be in [0, 1], got {value}")))
+        }
+    }
+
+    pub(crate) fn aabb<V: Vector>(
+        &self,
+        field: &str,
+        min: &[f64],
+        max: &[f64],
+    ) -> Result<Aabb<V>, SceneError> {
+        let lo = self.vector::<V>(&format!("{field}.min"), min)?;
+        let hi = self.vector::<V>(&format!("{field}.max"), max)?;
+        Aabb::new(lo, hi).map_err(|_| {
+            self.err(
+                field,
+                format!("min must be below max on every axis, got min {min:?}, max {max:?}"),
+            )
+        })
+    }
+}
+
+fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
+    let dt = ctx.positive("dt", raw.dt)?;
+    let steps = match raw.steps {
+        None => DEFAULT_STEPS,
+        Some(s) if s >= 0 => s as u64,
+        Some(s) => return Err(ctx.err("steps", format!("must be >= 0, got {s}"))),
+    };
+    let gravity = match &raw.gravity {
+        Some(g) => ctx.vector::<V>("gravity", g)?,
+        None => V::ZERO,
+    };
+    let restitution = ctx.restitution("restitution", raw.restitution.unwrap_or(1.0))?;
+
+    let mut domain = None;
+    let mut walls = None;
+    if let Some(d) = &raw.domain {
+        domain = Some(ctx.aabb::<V>("domain", &d.min, &d.max)?);
+        let k = match d.restitution {
+            Some(k) => ctx.restitution("domain.restitution", k)?,
+            None => restitution,
+        };
+        if d.walls {
+            walls = Some(k);
+        }
+    }
+
+    let mut broad_phase = BroadPhaseKind::Grid;
+    let mut grid_cells = None;
+    if let Some(b) = &raw.broadphase {
+        if b.kind == Some(RawBroadPhaseKind::Brute) {
+            broad_phase = BroadPhaseKind::Brute;
+        }
+        if let Some(cells) = &b.cells {
+            if cells.len() != V::DIM {
+                return Err(ctx.err(
+                    "broadphase.cells",
+                    format!("needs {} entries, got {}", V::DIM, cells.len()),
+                ));
+            }
+            let mut total: u64 = 1;
+            let mut out = Vec::with_capacity(V::DIM);
+            for &c in cells {
+                if c < 1 {
+                    return Err(ctx.err(
+                        "broadphase.cells",
+                        format!("every entry must be >= 1, got {cells:?}"),
+                    ));
+                }
+                total = total.saturating_mul(c as u64);
+                out.push(c as usize);
+            }
+            if total > MAX_CELLS {
+                return Err(ctx.err(
+                    "broadphase.cells",
+                    format!("{total} cells in all is more than the limit {MAX_CELLS}"),
+                ));
+            }
+            grid_cells = Some(out);
+        }
+    }
+
+    let (mut velocity_iterations, mut position_iterations) =
+        (DEFAULT_VELOCITY_ITERATIONS, DEFAULT_POSITION_ITERATIONS);
+    if let Some(s) = &raw.solver {
+        if let Some(v) = s.velocity_iterations {
+            if !(1..=1_000_000).contains(&v) {
+                return Err(ctx.err(
+                    "solver.velocity_iterations",
+                    format!("must be in 1..=1000000, got {v}"),
+                ));
+            }
+            velocity_iterations = v as u32;
+        }
+        if let Some(p) = s.position_iterations {
+            if !(0..=1_000_000).contains(&p) {
+                return Err(ctx.err(
+                    "solver.position_iterations",
+                    format!("must be in 0..=1000000, got {p}"),
+                ));
+            }
+            position_iterations = p as u32;
+        }
+    }
+
+    let mut planes = Vec::with_capacity(raw.planes.len());
+    for (i, p) in raw.planes.iter().enumerate() {
+        let f = |k: &str| format!("planes[{i}].{k}");
+        let point = ctx.vector::<V>(&f("point"), &p.point)?;
+        let normal = ctx.vector::<V>(&f("normal"), &p.normal)?;
+        let k = match p.restitution {
+            Some(k) => ctx.restitution(&f("restitution"), k)?,
+            None => restitution,
+        };
+        let plane = Plane::new(point, normal, k).map_err(|e| match e {
+            EngineError::ZeroPlaneNormal => ctx.err(f("normal"), "must not be zero"),
+            other => ctx.err(format!("planes[{i}]"), other.to_string()),
+        })?;
+        planes.push(plane);
+    }
+
+    let particles = fill::particles::<V>(ctx, &raw, domain)?;
+
+    Ok(Scene {
+        name: raw.name,
+        description: raw.description,
+        steps,
+        config: WorldConfig {
+            dt,
+            gravity,
+            restitution,
+            velocity_iterations,
+            position_iterations,
+            domain,
+            broad_phase,
+            grid_cells,
+        },
+        walls,
+        planes,
+        particles,
+    })
+}

@@ -1,0 +1,384 @@
+//! End-to-end tests: the real `carom` binary on real scene files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn carom() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_carom"))
+}
+
+fn scenes() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
+}
+
+fn run_ok(args: &[&str]) -> Output {
+    let out = carom().args(args).output().expect("carom starts");
+    assert!(
+        out.status.success(),
+        "carom {args:?} failed: {}\n{}",
+        String::from_utf8_lossy(&out.stderr),
+        String::from_utf8_lossy(&out.stdout)
+    );
+    out
+}
+
+/// Runs a scene to a CSV and returns the rows (numbers, id column included).
+fn final_state(scene: &Path, extra: &[&str]) -> Vec<Vec<f64>> {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("final.csv");
+    let mut args = vec![
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    run_ok(&args);
+    let text = std::fs::read_to_string(&out).unwrap();
+    carom_rows(&text)
+}
+
+fn carom_rows(text: &str) -> Vec<Vec<f64>> {
+    text.lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|f| f.parse().unwrap()).collect())
+        .collect()
+}
+
+fn assert_close(got: f64, want: f64, what: &str) {
+    assert!((got - want).abs() < 1e-9, "{what}: got {got}, want {want}");
+}
+
+#[test]
+fn lecture_worked_example_1() {
+    let rows = final_state(&scenes().join("lecture_example_1.toml"), &[]);
+    let s3 = 3f64.sqrt();
+    // columns: id,x,y,vx,vy,radius,mass
+    assert_close(rows[0][3], 5.0, "v1'.x");
+    assert_close(rows[0][4], 5.0 * s3, "v1'.y");
+    assert_close(rows[1][3], 15.0, "v2'.x");
+    assert_close(rows[1][4], -5.0 * s3, "v2'.y");
+}
+
+#[test]
+fn lecture_worked_example_2() {
+    let rows = final_state(&scenes().join("lecture_example_2.toml"), &[]);
+    let s3 = 3f64.sqrt();
+    assert_close(rows[0][3], -10.0, "v1'.x");
+    assert_close(rows[0][4], 10.0 * s3, "v1'.y");
+    assert_close(rows[1][3], 5.0, "v2'.x");
+    assert_close(rows[1][4], -5.0 * s3, "v2'.y");
+}
+
+#[test]
+fn newton_cradle_2d_and_3d() {
+    for (file, dim) in [("newton_cradle.toml", 2), ("newton_cradle_3d.toml", 3)] {
+        let rows = final_state(&scenes().join(file), &[]);
+        let vx = 1 + dim; // id, x.., vx
+        let last = rows.last().unwrap();
+        assert_close(last[vx], 5.0, &format!("{file}: last ball vx"));
+        for row in &rows[..rows.len() - 1] {
+            for a in 0..dim {
+                assert_close(row[vx + a], 0.0, &format!("{file}: ball {} v", row[0]));
+            }
+        }
+    }
+}
+
+#[test]
+fn every_shipped_scene_checks_and_runs() {
+    let mut n = 0;
+    for entry in std::fs::read_dir(scenes()).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            n += 1;
+            let p = path.to_str().unwrap();
+            run_ok(&["check", p]);
+            let out = run_ok(&["run", p, "--steps", "3"]);
+            let text = String::from_utf8(out.stdout).unwrap();
+            assert!(
+                text.contains("energy") && text.contains("ms per step"),
+                "{text}"
+            );
+        }
+    }
+    assert!(n >= 13, "only {n} scenes");
+}
+
+#[test]
+fn default_scene_runs_with_a_summary() {
+    let out = run_ok(&["run", "--steps", "20"]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    for key in [
+        "scene",
+        "particles   100 (2D)",
+        "steps       20",
+        "ms per step",
+        "kinetic",
+        "momentum",
+    ] {
+        assert!(text.contains(key), "missing {key:?} in:\n{text}");
+    }
+    assert!(out.stderr.is_empty(), "no progress bar when not a terminal");
+}
+
+#[test]
+fn grid_and_brute_force_write_identical_files() {
+    // radii 1 and 3 with 2-unit cells: smaller than the largest diameter
+    let scene = scenes().join("lecture_mixed_radii.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let mut outputs = Vec::new();
+    for (name, extra) in [
+        ("grid", vec!["--broadphase", "grid"]),
+        ("grid37", vec!["--cells", "37,29"]),
+        ("brute", vec!["--broadphase", "brute"]),
+    ] {
+        let out = dir.path().join(format!("{name}.csv"));
+        let mut args = vec![
+            "run",
+            scene.to_str().unwrap(),
+            "--steps",
+            "150",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        run_ok(&args);
+        outputs.push(std::fs::read(&out).unwrap());
+    }
+    assert_eq!(outputs[0], outputs[2], "grid 100x100 vs brute force");
+    assert_eq!(outputs[1], outputs[2], "grid 37x29 vs brute force");
+}
+
+#[test]
+fn one_and_two_threads_write_identical_files() {
+    let scene = scenes().join("lecture_5000_grid100.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let mut outputs = Vec::new();
+    for threads in ["1", "2"] {
+        let out = dir.path().join(format!("t{threads}.csv"));
+        run_ok(&[
+            "run",
+            scene.to_str().unwrap(),
+            "--steps",
+            "60",
+            "--threads",
+            threads,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        outputs.push(std::fs::read(&out).unwrap());
+    }
+    assert_eq!(outputs[0], outputs[1]);
+    // and RAYON_NUM_THREADS is honoured the same way
+    let out = dir.path().join("env.csv");
+    let status = carom()
+        .args([
+            "run",
+            scene.to_str().unwrap(),
+            "--steps",
+            "60",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .env("RAYON_NUM_THREADS", "1")
+        .output()
+        .unwrap();
+    assert!(status.status.success());
+    assert!(String::from_utf8_lossy(&status.stdout).contains("1 threads"));
+    assert_eq!(std::fs::read(&out).unwrap(), outputs[0]);
+}
+
+#[test]
+fn fills_are_reproducible_and_non_overlapping() {
+    let scene = scenes().join("lecture_mixed_radii.toml");
+    let a = final_state(&scene, &["--steps", "0"]);
+    let b = final_state(&scene, &["--steps", "0"]);
+    assert_eq!(a, b);
+    assert_eq!(a.len(), 2750);
+    // no two particles overlap at the start (brute force check)
+    for i in 0..a.len() {
+        for j in i + 1..a.len() {
+            let d = ((a[i][1] - a[j][1]).powi(2) + (a[i][2] - a[j][2]).powi(2)).sqrt();
+            assert!(d >= a[i][5] + a[j][5], "{i} and {j} overlap");
+        }
+    }
+}
+
+/// A bad scene: exit status 2, a message naming the file and the field, no output file.
+fn assert_rejected(toml: &str, field: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("bad.toml");
+    std::fs::write(&scene, toml).unwrap();
+    let out_file = dir.path().join("out.csv");
+    let out = carom()
+        .args([
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out_file.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{toml}\n{stderr}");
+    assert!(stderr.contains("bad.toml"), "file not named: {stderr}");
+    assert!(
+        stderr.contains(field),
+        "field {field:?} not named: {stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "only the scene file is left"
+    );
+}
+
+const GOOD: &str = r#"
+dimensions = 2
+dt = 0.005
+steps = 10
+gravity = [0.0, -9.8]
+restitution = 0.5
+[domain]
+min = [-10.0, -10.0]
+max = [10.0, 10.0]
+walls = true
+[[particles]]
+position = [0.0, 0.0]
+velocity = [1.0, 0.0]
+radius = 1.0
+mass = 1.0
+[[fill]]
+count = 10
+radius = 0.5
+speed = 1.0
+seed = 1
+"#;
+
+#[test]
+fn the_good_scene_is_good() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("good.toml");
+    std::fs::write(&scene, GOOD).unwrap();
+    run_ok(&["run", scene.to_str().unwrap()]);
+}
+
+#[test]
+fn bad_scenes_are_rejected_with_file_and_field() {
+    let cases: &[(&str, &str, &str)] = &[
+        // (replace this, with this, expected field in the message)
+        ("dt = 0.005", "dt = 0.005 +", "line"), // malformed TOML
+        ("radius = 1.0\nmass", "radus = 1.0\nmass", "radus"), // unknown key
+        ("walls = true", "walls = true\ncolour = \"red\"", "colour"), // unknown key in a table
+        (
+            "position = [0.0, 0.0]",
+            "position = [0.0, 0.0, 0.0]",
+            "particles[0].position",
+        ),
+        ("gravity = [0.0, -9.8]", "gravity = [0.0]", "gravity"),
+        (
+            "velocity = [1.0, 0.0]",
+            "velocity = [nan, 0.0]",
+            "particles[0].velocity",
+        ),
+        (
+            "velocity = [1.0, 0.0]",
+            "velocity = [inf, 0.0]",
+            "particles[0].velocity",
+        ),
+        (
+            "radius = 1.0\nmass",
+            "radius = 0.0\nmass",
+            "particles[0].radius",
+        ),
+        (
+            "radius = 1.0\nmass",
+            "radius = -2.0\nmass",
+            "particles[0].radius",
+        ),
+        (
+            "radius = 1.0\nmass",
+            "radius = nan\nmass",
+            "particles[0].radius",
+        ),
+        ("mass = 1.0", "mass = 0.0", "particles[0].mass"),
+        ("restitution = 0.5", "restitution = 1.5", "restitution"),
+        ("restitution = 0.5", "restitution = -0.1", "restitution"),
+        ("restitution = 0.5", "restitution = nan", "restitution"),
+        ("dt = 0.005", "dt = 0.0", "dt"),
+        ("dt = 0.005", "dt = -1.0", "dt"),
+        ("dt = 0.005", "dt = inf", "dt"),
+        ("max = [10.0, 10.0]", "max = [-10.0, 10.0]", "domain"),
+        (
+            "walls = true",
+            "walls = true\n[broadphase]\ncells = [0, 10]",
+            "broadphase.cells",
+        ),
+        (
+            "walls = true",
+            "walls = true\n[broadphase]\ncells = [10]",
+            "broadphase.cells",
+        ),
+        (
+            "walls = true",
+            "walls = true\n[broadphase]\nkind = \"gird\"",
+            "gird",
+        ),
+        (
+            "walls = true",
+            "walls = true\n[[planes]]\npoint = [0.0, 0.0]\nnormal = [0.0, 0.0]",
+            "planes[0].normal",
+        ),
+        (
+            "walls = true",
+            "walls = true\n[[planes]]\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\nrestitution = 2.0",
+            "planes[0].restitution",
+        ),
+        ("count = 10", "count = 100000000000", "fill[0].count"),
+        ("count = 10", "count = 0", "fill[0].count"),
+        ("count = 10", "count = 5000", "fill[0].count"), // cannot hold them
+        ("dimensions = 2", "dimensions = 4", "dimensions"),
+        ("steps = 10", "steps = -3", "steps"),
+    ];
+    for (from, to, field) in cases {
+        assert!(GOOD.contains(from), "{from}");
+        assert_rejected(&GOOD.replacen(from, to, 1), field);
+    }
+}
+
+#[test]
+fn missing_scene_file_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = carom()
+        .args(["run", "/nonexistent/scene.toml"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/scene.toml"));
+}
+
+#[test]
+fn bad_flags_are_rejected() {
+    let scene = scenes().join("newton_cradle.toml");
+    let s = scene.to_str().unwrap();
+    for args in [
+        vec!["run", s, "--threads", "0"],
+        vec!["run", s, "--broadphase", "octree"],
+        vec!["run", s, "--steps", "-1"],
+        vec!["run", s, "--cells", "0,5"],
+        vec!["run", s, "--out", "/nonexistent/dir/out.csv"],
+        vec!["run", "--preset", "no_such_scene"],
+        vec!["run", s, "--bogus"],
+    ] {
+        let out = carom().args(&args).output().unwrap();
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}

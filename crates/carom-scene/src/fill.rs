@@ -1,0 +1,301 @@
+//! The particle set of a scene: explicit `[[particles]]`, then each `[[fill]]` placed without
+//! overlap (random, seeded; or on a lattice).
+
+use crate::raw::{RawArrangement, RawScene};
+use crate::{Ctx, SceneError};
+use carom_engine::{Aabb, Particles, Vector};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64;
+use rustc_hash::FxHashMap;
+
+/// What one particle costs while a scene is built and run (engine arrays, grid, contacts and
+/// the placement hash), used to refuse fills that cannot fit in memory before trying.
+const BYTES_PER_PARTICLE_ESTIMATE: u64 = 256;
+
+/// Densest packings: hexagonal (2D) and face-centred cubic (3D). A fill denser than this
+/// cannot exist, so it is refused at once instead of after a long search.
+const MAX_PACKING: [f64; 2] = [0.9069, 0.7405];
+
+/// Random placement tries per particle before giving up (on average over the fill).
+const ATTEMPTS_PER_PARTICLE: u64 = 200;
+
+pub(crate) fn particles<V: Vector>(
+    ctx: &Ctx,
+    raw: &RawScene,
+    domain: Option<Aabb<V>>,
+) -> Result<Particles<V>, SceneError> {
+    let mut total = raw.particles.len() as u64;
+    let memory = physical_memory_bytes();
+    for (i, f) in raw.fill.iter().enumerate() {
+        let field = format!("fill[{i}].count");
+        if f.count < 1 {
+            return Err(ctx.err(field, format!("must be >= 1, got {}", f.count)));
+        }
+        total = total.saturating_add(f.count as u64);
+        if total >= u32::MAX as u64 {
+            return Err(ctx.err(
+                field,
+                format!(
+                    "{total} particles in all is more than carom can index ({})",
+                    u32::MAX - 1
+                ),
+            ));
+        }
+        let need = total.saturating_mul(BYTES_PER_PARTICLE_ESTIMATE);
+        if let Some(have) = memory {
+            if need > have {
+                return Err(ctx.err(
+                    field,
+                    format!(
+                        "{total} particles need about {:.1} GiB, more than this machine's {:.1} GiB of memory",
+                        need as f64 / GIB,
+                        have as f64 / GIB
+                    ),
+                ));
+            }
+        }
+    }
+
+    let mut out = Particles::new();
+    out.try_reserve(total as usize).map_err(|e| {
+        ctx.err(
+            "fill",
+            format!("cannot reserve memory for {total} particles: {e}"),
+        )
+    })?;
+
+    let mut max_radius: f64 = 0.0;
+    for (i, p) in raw.particles.iter().enumerate() {
+        let f = |k: &str| format!("particles[{i}].{k}");
+        let position = ctx.vector::<V>(&f("position"), &p.position)?;
+        let velocity = match &p.velocity {
+            Some(v) => ctx.vector::<V>(&f("velocity"), v)?,
+            None => V::ZERO,
+        };
+        let radius = ctx.positive(&f("radius"), p.radius)?;
+        let mass = ctx.positive(&f("mass"), p.mass.unwrap_or(1.0))?;
+        max_radius = max_radius.max(radius);
+        out.push(position, velocity, radius, mass)
+            .map_err(|e| ctx.err(format!("particles[{i}]"), e.to_string()))?;
+    }
+    for (i, f) in raw.fill.iter().enumerate() {
+        max_radius = max_radius.max(ctx.positive(&format!("fill[{i}].radius"), f.radius)?);
+    }
+    if raw.fill.is_empty() {
+        return Ok(out);
+    }
+
+    let mut placed = SpatialHash::new(2.0 * max_radius);
+    for (id, (&x, &r)) in out.positions().iter().zip(out.radii()).enumerate() {
+        placed.insert(x, r, id as u32);
+    }
+
+    for (i, f) in raw.fill.iter().enumerate() {
+        let field = |k: &str| format!("fill[{i}].{k}");
+        let radius = f.radius;
+        let mass = ctx.positive(&field("mass"), f.mass.unwrap_or(1.0))?;
+        let speed = ctx.non_negative(&field("speed"), f.speed.unwrap_or(0.0))?;
+        let base_velocity = match &f.velocity {
+            Some(v) => ctx.vector::<V>(&field("velocity"), v)?,
+            None => V::ZERO,
+        };
+        let seed = match f.seed {
+            None => 0,
+            Some(s) if s >= 0 => s as u64,
+            Some(s) => return Err(ctx.err(field("seed"), format!("must be >= 0, got {s}"))),
+        };
+        let region = match (&f.min, &f.max, domain) {
+            (Some(lo), Some(hi), _) => ctx.aabb::<V>(&format!("fill[{i}]"), lo, hi)?,
+            (None, None, Some(d)) => d,
+            (None, None, None) => {
+                return Err(ctx.err(
+                    format!("fill[{i}]"),
+                    "needs a region: give min and max, or a [domain]",
+                ))
+            }
+            _ => return Err(ctx.err(format!("fill[{i}]"), "give both min and max, or neither")),
+        };
+        let extent = region.extent();
+        if (0..V::DIM).any(|a| extent.get(a) <= 2.0 * radius) {
+            return Err(ctx.err(
+                field("radius"),
+                format!("a particle of radius {radius} does not fit in the fill region"),
+            ));
+        }
+        let count = f.count as u64;
+        let region_volume: f64 = (0..V::DIM).map(|a| extent.get(a)).product();
+        let particle_volume = if V::DIM == 2 {
+            std::f64::consts::PI * radius * radius
+        } else {
+            4.0 / 3.0 * std::f64::consts::PI * radius.powi(3)
+        };
+        let fraction = count as f64 * particle_volume / region_volume;
+        if fraction > MAX_PACKING[V::DIM - 2] {
+            return Err(ctx.err(
+                field("count"),
+                format!(
+                    "{count} particles of radius {radius} would fill {:.0}% of the region, more than the densest packing ({:.0}%)",
+                    fraction * 100.0,
+                    MAX_PACKING[V::DIM - 2] * 100.0
+                ),
+            ));
+        }
+
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let lo = region.min + V::from_slice(&[radius; 3]);
+        let span = extent - V::from_slice(&[2.0 * radius; 3]);
+        let random_velocity = |rng: &mut Pcg64| {
+            base_velocity + random_direction::<V>(rng) * (speed * rng.random::<f64>())
+        };
+        let start = out.len();
+        match f.arrangement {
+            RawArrangement::Random => {
+                let budget = ATTEMPTS_PER_PARTICLE * count + 10_000;
+                let mut attempts = 0u64;
+                while ((out.len() - start) as u64) < count {
+                    attempts += 1;
+                    if attempts > budget {
+                        return Err(ctx.err(
+                            field("count"),
+                            format!(
+                                "placed only {} of {count} particles without overlap after {budget} random tries; \
+                                 enlarge the region, lower count or radius, or use arrangement = \"lattice\"",
+                                out.len() - start
+                            ),
+                        ));
+                    }
+                    let mut c = [0.0; 3];
+                    for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
+                        *slot = lo.get(a) + span.get(a) * rng.random::<f64>();
+                    }
+                    let x = V::from_slice(&c);
+                    if placed.overlaps(x, radius, out.positions(), out.radii()) {
+                        continue;
+                    }
+                    let v = random_velocity(&mut rng);
+                    let id = out
+                        .push(x, v, radius, mass)
+                        .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
+                    placed.insert(x, radius, id as u32);
+                }
+            }
+            RawArrangement::Lattice => {
+                // A hair more than a diameter apart, so neighbours do not count as touching.
+                let spacing = 2.0 * radius * (1.0 + 1e-9);
+                let mut per_axis = [1usize; 3];
+                for (a, n) in per_axis.iter_mut().enumerate().take(V::DIM) {
+                    *n = (span.get(a) / spacing).floor() as usize + 1;
+                }
+                let mut site = [0usize; 3];
+                'sites: while ((out.len() - start) as u64) < count {
+                    if site[V::DIM - 1] >= per_axis[V::DIM - 1] {
+                        return Err(ctx.err(
+                            field("count"),
+                            format!(
+                                "the lattice holds only {} of {count} particles in the region",
+                                out.len() - start
+                            ),
+                        ));
+                    }
+                    let mut c = [0.0; 3];
+                    for a in 0..V::DIM {
+                        c[a] = lo.get(a) + spacing * site[a] as f64;
+                    }
+                    // next site, x fastest
+                    for a in 0..V::DIM {
+                        site[a] += 1;
+                        if site[a] < per_axis[a] || a == V::DIM - 1 {
+                            break;
+                        }
+                        site[a] = 0;
+                    }
+                    let x = V::from_slice(&c);
+                    if placed.overlaps(x, radius, out.positions(), out.radii()) {
+                        continue 'sites;
+                    }
+                    let v = random_velocity(&mut rng);
+                    let id = out
+                        .push(x, v, radius, mass)
+                        .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
+                    placed.insert(x, radius, id as u32);
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+const GIB: f64 = (1u64 << 30) as f64;
+
+/// Total memory from `/proc/meminfo`, when the system says.
+fn physical_memory_bytes() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// A uniformly random unit vector.
+fn random_direction<V: Vector>(rng: &mut Pcg64) -> V {
+    use std::f64::consts::TAU;
+    if V::DIM == 2 {
+        let angle = TAU * rng.random::<f64>();
+        V::from_slice(&[angle.cos(), angle.sin()])
+    } else {
+        let z = 2.0 * rng.random::<f64>() - 1.0;
+        let angle = TAU * rng.random::<f64>();
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        V::from_slice(&[s * angle.cos(), s * angle.sin(), z])
+    }
+}
+
+/// Placement-time overlap checks: cells one largest diameter wide, so every particle that can
+/// touch a new one is in the 3^D cells around it.
+struct SpatialHash {
+    inverse_cell: f64,
+    cells: FxHashMap<[i64; 3], Vec<u32>>,
+}
+
+impl SpatialHash {
+    fn new(cell: f64) -> Self {
+        Self {
+            inverse_cell: 1.0 / cell,
+            cells: FxHashMap::default(),
+        }
+    }
+
+    fn key<V: Vector>(&self, x: V) -> [i64; 3] {
+        let mut k = [0i64; 3];
+        for (a, slot) in k.iter_mut().enumerate().take(V::DIM) {
+            *slot = (x.get(a) * self.inverse_cell).floor() as i64;
+        }
+        k
+    }
+
+    fn insert<V: Vector>(&mut self, x: V, _radius: f64, id: u32) {
+        let k = self.key(x);
+        self.cells.entry(k).or_default().push(id);
+    }
+
+    fn overlaps<V: Vector>(&self, x: V, radius: f64, positions: &[V], radii: &[f64]) -> bool {
+        let k = self.key(x);
+        let z_range = if V::DIM == 3 { -1..=1 } else { 0..=0 };
+        for dz in z_range {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let key = [k[0] + dx, k[1] + dy, k[2] + dz];
+                    if let Some(ids) = self.cells.get(&key) {
+                        for &j in ids {
+                            let j = j as usize;
+                            let reach = radius + radii[j];
+                            if (positions[j] - x).length_squared() < reach * reach {
+                                return true;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        false
+    }
+}
