@@ -201,7 +201,7 @@ fn print_summary<V: Vector>(
             seconds * 1e3 / steps as f64
         );
         println!(
-            "contacts    {:.1} per step on average, {contacts_max} at most{}",
+            "contacts    {:.2} per step on average, {contacts_max} at most{}",
             contacts_total as f64 / steps as f64,
             if capped_steps > 0 {
                 format!(", iteration cap reached in {capped_steps} steps")
@@ -217,11 +217,11 @@ fn print_summary<V: Vector>(
         fmt(ke1),
         change(ke0, ke1)
     );
+    // Potential energy has an arbitrary zero (the origin), so only its change means anything.
     println!(
-        "            kinetic + potential {} -> {} ({})",
-        fmt(ke0 + pe0),
-        fmt(ke1 + pe1),
-        change(ke0 + pe0, ke1 + pe1)
+        "            kinetic + potential changed by {:+.6e} ({:+.3}% of the initial kinetic)",
+        (ke1 + pe1) - (ke0 + pe0),
+        if ke0 > 0.0 { ((ke1 + pe1) - (ke0 + pe0)) / ke0 * 100.0 } else { 0.0 }
     );
     println!(
         "momentum    {} -> {}",
