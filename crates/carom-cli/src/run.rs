@@ -113,14 +113,16 @@ fn run_scene<V: Vector>(mut scene: Scene<V>, origin: &str, args: &RunArgs) -> Re
     if let Some(cells) = &args.cells {
         scene.config.grid_cells = Some(cells.clone());
     }
+    let name = scene.name.clone();
+    let steps = scene.steps;
     let mut world = scene
-        .build_world()
+        .into_world()
         .map_err(|e| Failure::input(format!("{origin}: {e}")))?;
 
     let energy_before = (world.kinetic_energy(), world.potential_energy());
     let momentum_before = world.momentum();
 
-    let progress = ProgressBar::new(scene.steps);
+    let progress = ProgressBar::new(steps);
     progress.set_style(
         ProgressStyle::with_template("{spinner} step {pos}/{len} {wide_bar} {eta} left")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -129,7 +131,7 @@ fn run_scene<V: Vector>(mut scene: Scene<V>, origin: &str, args: &RunArgs) -> Re
     let mut contacts_max = 0usize;
     let mut capped_steps = 0u64;
     let started = Instant::now();
-    for step in 0..scene.steps {
+    for step in 0..steps {
         let stats = world.step();
         contacts_total += stats.contacts as u64;
         contacts_max = contacts_max.max(stats.contacts);
@@ -146,7 +148,8 @@ fn run_scene<V: Vector>(mut scene: Scene<V>, origin: &str, args: &RunArgs) -> Re
             .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", out.display())))?;
     }
     print_summary(
-        &scene,
+        name.as_deref(),
+        steps,
         origin,
         &world,
         energy_before,
@@ -162,7 +165,8 @@ fn run_scene<V: Vector>(mut scene: Scene<V>, origin: &str, args: &RunArgs) -> Re
 
 #[allow(clippy::too_many_arguments)]
 fn print_summary<V: Vector>(
-    scene: &Scene<V>,
+    name: Option<&str>,
+    steps: u64,
     origin: &str,
     world: &World<V>,
     (ke0, pe0): (f64, f64),
@@ -173,8 +177,7 @@ fn print_summary<V: Vector>(
     capped_steps: u64,
     args: &RunArgs,
 ) {
-    let steps = scene.steps;
-    let name = scene.name.as_deref().unwrap_or("(unnamed)");
+    let name = name.unwrap_or("(unnamed)");
     println!("scene       {name} [{origin}]");
     let broad = match world.grid_cells() {
         Some(c) => {
@@ -221,7 +224,11 @@ fn print_summary<V: Vector>(
     println!(
         "            kinetic + potential changed by {:+.6e} ({:+.3}% of the initial kinetic)",
         (ke1 + pe1) - (ke0 + pe0),
-        if ke0 > 0.0 { ((ke1 + pe1) - (ke0 + pe0)) / ke0 * 100.0 } else { 0.0 }
+        if ke0 > 0.0 {
+            ((ke1 + pe1) - (ke0 + pe0)) / ke0 * 100.0
+        } else {
+            0.0
+        }
     );
     println!(
         "momentum    {} -> {}",

@@ -6,7 +6,6 @@ use crate::{Ctx, SceneError};
 use carom_engine::{Aabb, Particles, Vector};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use rustc_hash::FxHashMap;
 
 /// What one particle costs while a scene is built and run (engine arrays, grid, contacts and
 /// the placement hash), used to refuse fills that cannot fit in memory before trying.
@@ -85,9 +84,34 @@ pub(crate) fn particles<V: Vector>(
         return Ok(out);
     }
 
-    let mut placed = SpatialHash::new(2.0 * max_radius);
-    for (id, (&x, &r)) in out.positions().iter().zip(out.radii()).enumerate() {
-        placed.insert(x, r, id as u32);
+    // The placement grid covers every fill region and every explicit particle.
+    let mut lo = V::from_slice(&[f64::INFINITY; 3]);
+    let mut hi = V::from_slice(&[f64::NEG_INFINITY; 3]);
+    for &x in out.positions() {
+        lo = lo.min_components(x);
+        hi = hi.max_components(x);
+    }
+    let mut regions = Vec::with_capacity(raw.fill.len());
+    for (i, f) in raw.fill.iter().enumerate() {
+        let region = match (&f.min, &f.max, domain) {
+            (Some(lo), Some(hi), _) => ctx.aabb::<V>(&format!("fill[{i}]"), lo, hi)?,
+            (None, None, Some(d)) => d,
+            (None, None, None) => {
+                return Err(ctx.err(
+                    format!("fill[{i}]"),
+                    "needs a region: give min and max, or a [domain]",
+                ))
+            }
+            _ => return Err(ctx.err(format!("fill[{i}]"), "give both min and max, or neither")),
+        };
+        lo = lo.min_components(region.min);
+        hi = hi.max_components(region.max);
+        regions.push(region);
+    }
+    let bounds = Aabb { min: lo, max: hi };
+    let mut placed = PlacementGrid::new(bounds, max_radius, total as usize);
+    for (id, &x) in out.positions().iter().enumerate() {
+        placed.insert(x, id as u32);
     }
 
     for (i, f) in raw.fill.iter().enumerate() {
@@ -176,7 +200,7 @@ pub(crate) fn particles<V: Vector>(
                     let id = out
                         .push(x, v, radius, mass)
                         .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
-                    placed.insert(x, radius, id as u32);
+                    placed.insert(x, id as u32);
                 }
             }
             RawArrangement::Lattice => {
@@ -217,7 +241,7 @@ pub(crate) fn particles<V: Vector>(
                     let id = out
                         .push(x, v, radius, mass)
                         .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
-                    placed.insert(x, radius, id as u32);
+                    placed.insert(x, id as u32);
                 }
             }
         }
@@ -249,49 +273,91 @@ fn random_direction<V: Vector>(rng: &mut Pcg64) -> V {
     }
 }
 
-/// Placement-time overlap checks: cells one largest diameter wide, so every particle that can
-/// touch a new one is in the 3^D cells around it.
-struct SpatialHash {
+/// Placement-time overlap checks on a dense grid of linked lists (a head per cell, a `next`
+/// per particle: 4 bytes each, so a fill of millions stays lean). Cells are at least one
+/// largest diameter wide, so every particle that can touch a new one is in the 3^D cells
+/// around it.
+struct PlacementGrid {
+    origin: [f64; 3],
     inverse_cell: f64,
-    cells: FxHashMap<[i64; 3], Vec<u32>>,
+    dims: [usize; 3],
+    head: Vec<u32>,
+    next: Vec<u32>,
 }
 
-impl SpatialHash {
-    fn new(cell: f64) -> Self {
+const EMPTY: u32 = u32::MAX;
+
+impl PlacementGrid {
+    /// A grid over `bounds` for `capacity` particles of radius at most `max_radius`.
+    fn new<V: Vector>(bounds: Aabb<V>, max_radius: f64, capacity: usize) -> Self {
+        let mut cell = 2.0 * max_radius;
+        let extent: Vec<f64> = (0..V::DIM)
+            .map(|a| bounds.max.get(a) - bounds.min.get(a))
+            .collect();
+        // Never more than ~4 cells per particle: coarser cells stay correct, just slower.
+        let limit = (4 * capacity + 1024) as f64;
+        let count = |cell: f64| {
+            extent
+                .iter()
+                .map(|e| (e / cell).floor() + 1.0)
+                .product::<f64>()
+        };
+        if count(cell) > limit {
+            cell *= (count(cell) / limit).powf(1.0 / V::DIM as f64) * 1.01;
+            while count(cell) > limit {
+                cell *= 1.1;
+            }
+        }
+        let mut dims = [1usize; 3];
+        let mut origin = [0.0; 3];
+        for a in 0..V::DIM {
+            dims[a] = (extent[a] / cell).floor() as usize + 1;
+            origin[a] = bounds.min.get(a);
+        }
         Self {
+            origin,
             inverse_cell: 1.0 / cell,
-            cells: FxHashMap::default(),
+            dims,
+            head: vec![EMPTY; dims.iter().product()],
+            next: Vec::with_capacity(capacity),
         }
     }
 
-    fn key<V: Vector>(&self, x: V) -> [i64; 3] {
-        let mut k = [0i64; 3];
-        for (a, slot) in k.iter_mut().enumerate().take(V::DIM) {
-            *slot = (x.get(a) * self.inverse_cell).floor() as i64;
+    fn coords<V: Vector>(&self, x: V) -> [usize; 3] {
+        let mut c = [0usize; 3];
+        for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
+            let t = ((x.get(a) - self.origin[a]) * self.inverse_cell).floor();
+            *slot = (t.max(0.0) as usize).min(self.dims[a] - 1);
         }
-        k
+        c
     }
 
-    fn insert<V: Vector>(&mut self, x: V, _radius: f64, id: u32) {
-        let k = self.key(x);
-        self.cells.entry(k).or_default().push(id);
+    fn linear(&self, c: [usize; 3]) -> usize {
+        (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
+    }
+
+    /// Adds particle `id` (ids must arrive in order 0, 1, 2, ...).
+    fn insert<V: Vector>(&mut self, x: V, id: u32) {
+        debug_assert_eq!(id as usize, self.next.len());
+        let cell = self.linear(self.coords(x));
+        self.next.push(self.head[cell]);
+        self.head[cell] = id;
     }
 
     fn overlaps<V: Vector>(&self, x: V, radius: f64, positions: &[V], radii: &[f64]) -> bool {
-        let k = self.key(x);
-        let z_range = if V::DIM == 3 { -1..=1 } else { 0..=0 };
-        for dz in z_range {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let key = [k[0] + dx, k[1] + dy, k[2] + dz];
-                    if let Some(ids) = self.cells.get(&key) {
-                        for &j in ids {
-                            let j = j as usize;
-                            let reach = radius + radii[j];
-                            if (positions[j] - x).length_squared() < reach * reach {
-                                return true;
-                            }
+        let c = self.coords(x);
+        let lo = |a: usize| c[a].saturating_sub(1);
+        let hi = |a: usize| (c[a] + 1).min(self.dims[a] - 1);
+        for z in lo(2)..=hi(2) {
+            for y in lo(1)..=hi(1) {
+                for x_cell in lo(0)..=hi(0) {
+                    let mut j = self.head[self.linear([x_cell, y, z])];
+                    while j != EMPTY {
+                        let reach = radius + radii[j as usize];
+                        if (positions[j as usize] - x).length_squared() < reach * reach {
+                            return true;
                         }
+                        j = self.next[j as usize];
                     }
                 }
             }

@@ -49,6 +49,17 @@ impl<V: Vector> Scene<V> {
     /// Builds the world. Cannot fail for a scene that [`load`] or [`parse`] accepted unless the
     /// fields were changed afterwards.
     pub fn build_world(&self) -> Result<World<V>, EngineError> {
+        self.builder(self.particles.clone()).build()
+    }
+
+    /// Builds the world, moving the particles into it instead of copying them (for large
+    /// scenes, where a copy would double the peak memory).
+    pub fn into_world(mut self) -> Result<World<V>, EngineError> {
+        let particles = std::mem::take(&mut self.particles);
+        self.builder(particles).build()
+    }
+
+    fn builder(&self, particles: Particles<V>) -> carom_engine::WorldBuilder<V> {
         let mut b = World::builder()
             .dt(self.config.dt)
             .gravity(self.config.gravity)
@@ -58,7 +69,7 @@ impl<V: Vector> Scene<V> {
                 self.config.position_iterations,
             )
             .broad_phase(self.config.broad_phase)
-            .particles(self.particles.clone());
+            .particles(particles);
         if let Some(d) = self.config.domain {
             b = b.domain(d);
         }
@@ -71,7 +82,7 @@ impl<V: Vector> Scene<V> {
         for p in &self.planes {
             b = b.plane(*p);
         }
-        b.build()
+        b
     }
 }
 
