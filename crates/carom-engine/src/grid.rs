@@ -8,10 +8,14 @@
 //! Buckets are stored as cell lists built by a counting sort (`cell_start` offsets into one
 //! `ids` array) rather than a `Vec` per cell: the same buckets, without an allocation per cell.
 //!
-//! Neighbour reach: a particle of radius `r_i` can touch any particle within `r_i + r_max`, so
-//! it searches `ceil((r_i + r_max) / cell_size)` cells each way on each axis. With cells at
-//! least one largest diameter wide that is the lecture's 3x3 (3x3x3) block; smaller cells or
-//! mixed radii (its radius 1 and 3 demo) widen the search instead of missing contacts.
+//! Neighbour reach: a particle at `x` with radius `r_i` can touch any particle within
+//! `R = r_i + r_max`, so it searches the cells from `hash(x - R')` to `hash(x + R')` on each
+//! axis, with `R'` a hair larger than `R` (a relative 1e-9 plus the rounding of `x +- R`).
+//! Because the hash is monotone in `x`, this holds in floating point too, not just in real
+//! arithmetic: a pair whose centres are a few ulps under `r_i + r_j` apart across a cell
+//! boundary is never missed (searching `ceil(R / cell)` cells each way can miss it). With cells
+//! one largest diameter wide this is the lecture's 3x3 (3x3x3) block; smaller cells or mixed
+//! radii (its radius 1 and 3 demo) widen the search instead of missing contacts.
 
 use crate::broadphase::{collect_pairs, BroadPhase, Pair};
 use crate::domain::Aabb;
@@ -31,7 +35,6 @@ pub struct Grid<V> {
     layout: GridLayout,
     cell_of: Vec<u32>,
     cell_start: Vec<u32>,
-    cursor: Vec<u32>,
     ids: Vec<u32>,
     buffers: Vec<Vec<Pair>>,
 }
@@ -54,11 +57,30 @@ impl GridLayout {
     pub fn cell_coords<V: Vector>(&self, x: V) -> [usize; 3] {
         let mut c = [0usize; 3];
         for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
-            let t = ((x.get(a) - self.origin[a]) / self.cell_size[a]).floor();
-            // `as usize` saturates (negative and NaN become 0); clamp the top.
-            *slot = (t.max(0.0) as usize).min(self.cells[a] - 1);
+            *slot = self.axis_cell(a, x.get(a));
         }
         c
+    }
+
+    /// One axis of [`GridLayout::cell_coords`]. Monotone in `coordinate`: every step (a
+    /// subtraction, a division by a positive constant, floor, clamp) is.
+    #[inline]
+    pub fn axis_cell(&self, axis: usize, coordinate: f64) -> usize {
+        let t = ((coordinate - self.origin[axis]) / self.cell_size[axis]).floor();
+        // `as usize` saturates (negative and NaN become 0); clamp the top.
+        (t.max(0.0) as usize).min(self.cells[axis] - 1)
+    }
+
+    /// The cells on `axis` that can hold a particle within `reach` of `coordinate`, inclusive.
+    #[inline]
+    pub fn axis_range(&self, axis: usize, coordinate: f64, reach: f64) -> (usize, usize) {
+        // Widen the reach by a relative 1e-9 (far above the rounding of the distance test) and
+        // by the rounding of `coordinate +- reach` itself, so monotonicity does the rest.
+        let widened = reach * (1.0 + 1e-9) + 4.0 * f64::EPSILON * (coordinate.abs() + reach);
+        (
+            self.axis_cell(axis, coordinate - widened),
+            self.axis_cell(axis, coordinate + widened),
+        )
     }
 
     /// Row-major linear index of cell coordinates.
@@ -102,7 +124,6 @@ impl<V: Vector> Grid<V> {
             },
             cell_of: Vec::new(),
             cell_start: Vec::new(),
-            cursor: Vec::new(),
             ids: Vec::new(),
             buffers: Vec::new(),
         })
@@ -127,9 +148,9 @@ impl<V: Vector> Grid<V> {
         let diameter = 2.0 * max_radius;
         let mut cells = [1usize; 3];
         let mut extent = [1.0f64; 3];
-        for a in 0..V::DIM {
+        for (a, e) in extent.iter_mut().enumerate().take(V::DIM) {
             // A degenerate box (all particles in one plane) still needs a cell of some size.
-            extent[a] = (bounds.max.get(a) - bounds.min.get(a))
+            *e = (bounds.max.get(a) - bounds.min.get(a))
                 .max(diameter)
                 .max(f64::MIN_POSITIVE);
         }
@@ -185,14 +206,16 @@ impl<V: Vector> Grid<V> {
         for c in 0..total {
             self.cell_start[c + 1] += self.cell_start[c];
         }
-        self.cursor.clear();
-        self.cursor.extend_from_slice(&self.cell_start[..total]);
+        // Scatter with `cell_start[c]` as the cursor; afterwards it holds the end of cell c,
+        // which is the start of cell c + 1, so shifting by one restores the starts.
         self.ids.resize(n, 0);
         for (i, &c) in self.cell_of.iter().enumerate() {
-            let slot = &mut self.cursor[c as usize];
+            let slot = &mut self.cell_start[c as usize];
             self.ids[*slot as usize] = i as u32;
             *slot += 1;
         }
+        self.cell_start.copy_within(0..total, 1);
+        self.cell_start[0] = 0;
     }
 }
 
@@ -236,18 +259,10 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
         let (cell_start, ids) = (&self.cell_start, &self.ids);
         collect_pairs(positions.len(), &mut self.buffers, pairs, |i, out| {
             let (pi, ri) = (positions[i], radii[i]);
-            let home = layout.cell_coords(pi);
             let mut lo = [0usize; 3];
             let mut hi = [0usize; 3];
             for a in 0..V::DIM {
-                let reach = ((ri + max_radius) / layout.cell_size[a]).ceil();
-                let reach = if reach < layout.cells[a] as f64 {
-                    reach as usize
-                } else {
-                    layout.cells[a]
-                };
-                lo[a] = home[a].saturating_sub(reach);
-                hi[a] = (home[a] + reach).min(layout.cells[a] - 1);
+                (lo[a], hi[a]) = layout.axis_range(a, pi.get(a), ri + max_radius);
             }
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {

@@ -280,6 +280,7 @@ fn random_direction<V: Vector>(rng: &mut Pcg64) -> V {
 struct PlacementGrid {
     origin: [f64; 3],
     inverse_cell: f64,
+    max_radius: f64,
     dims: [usize; 3],
     head: Vec<u32>,
     next: Vec<u32>,
@@ -317,6 +318,7 @@ impl PlacementGrid {
         Self {
             origin,
             inverse_cell: 1.0 / cell,
+            max_radius,
             dims,
             head: vec![EMPTY; dims.iter().product()],
             next: Vec::with_capacity(capacity),
@@ -326,8 +328,7 @@ impl PlacementGrid {
     fn coords<V: Vector>(&self, x: V) -> [usize; 3] {
         let mut c = [0usize; 3];
         for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
-            let t = ((x.get(a) - self.origin[a]) * self.inverse_cell).floor();
-            *slot = (t.max(0.0) as usize).min(self.dims[a] - 1);
+            *slot = self.axis_cell(a, x.get(a));
         }
         c
     }
@@ -344,13 +345,25 @@ impl PlacementGrid {
         self.head[cell] = id;
     }
 
+    fn axis_cell(&self, axis: usize, coordinate: f64) -> usize {
+        let t = ((coordinate - self.origin[axis]) * self.inverse_cell).floor();
+        (t.max(0.0) as usize).min(self.dims[axis] - 1)
+    }
+
     fn overlaps<V: Vector>(&self, x: V, radius: f64, positions: &[V], radii: &[f64]) -> bool {
-        let c = self.coords(x);
-        let lo = |a: usize| c[a].saturating_sub(1);
-        let hi = |a: usize| (c[a] + 1).min(self.dims[a] - 1);
-        for z in lo(2)..=hi(2) {
-            for y in lo(1)..=hi(1) {
-                for x_cell in lo(0)..=hi(0) {
+        // Cells within reach of x, widened past rounding (see carom_engine::grid).
+        let reach = radius + self.max_radius;
+        let mut lo = [0usize; 3];
+        let mut hi = [0usize; 3];
+        for a in 0..V::DIM {
+            let c = x.get(a);
+            let widened = reach * (1.0 + 1e-9) + 4.0 * f64::EPSILON * (c.abs() + reach);
+            lo[a] = self.axis_cell(a, c - widened);
+            hi[a] = self.axis_cell(a, c + widened);
+        }
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                for x_cell in lo[0]..=hi[0] {
                     let mut j = self.head[self.linear([x_cell, y, z])];
                     while j != EMPTY {
                         let reach = radius + radii[j as usize];

@@ -1,0 +1,829 @@
+//! World-level physics tests: the lecture's collision rules seen through `World::step`.
+//!
+//! Every scene is deterministic (a small LCG places and launches the particles), so a failure
+//! reproduces exactly.
+
+use carom_engine::glam::{DVec2, DVec3};
+use carom_engine::{Aabb, BroadPhaseKind, Plane, Vector, World, WorldBuilder};
+
+// ---------------------------------------------------------------------------------------------
+// helpers
+// ---------------------------------------------------------------------------------------------
+
+/// A small deterministic generator (PCG constants, top 53 bits) so scenes need no `rand`.
+struct Lcg(u64);
+
+impl Lcg {
+    fn new(seed: u64) -> Self {
+        Self(seed ^ 0x9e37_79b9_7f4a_7c15)
+    }
+    /// Uniform in [0, 1).
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Uniform in [lo, hi).
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+    fn vector<V: Vector>(&mut self, lo: f64, hi: f64) -> V {
+        let c = [self.range(lo, hi), self.range(lo, hi), self.range(lo, hi)];
+        V::from_slice(&c)
+    }
+}
+
+/// `n` centres on a jittered cubic lattice of spacing `spacing` (> 2 r), centred on the origin,
+/// with jitter small enough that no two discs/spheres of radius `r` overlap.
+/// Returns the centres and the half side of the smallest box that holds the lattice cells.
+fn jittered_lattice<V: Vector>(n: usize, r: f64, spacing: f64, rng: &mut Lcg) -> (Vec<V>, f64) {
+    assert!(spacing > 2.0 * r);
+    let per_axis = (n as f64).powf(1.0 / V::DIM as f64).ceil() as usize;
+    let half = per_axis as f64 * spacing / 2.0;
+    let jitter = 0.49 * (spacing - 2.0 * r);
+    let out: Vec<V> = (0..n)
+        .map(|cell| {
+            let mut c = [0.0; 3];
+            let mut rest = cell;
+            for slot in c.iter_mut().take(V::DIM) {
+                let i = rest % per_axis;
+                rest /= per_axis;
+                *slot = -half + (i as f64 + 0.5) * spacing + rng.range(-jitter, jitter);
+            }
+            V::from_slice(&c)
+        })
+        .collect();
+    (out, half)
+}
+
+/// Lattice spacing that gives packing fraction `phi` for radius `r` (area in 2D, volume in 3D).
+fn spacing_for<V: Vector>(r: f64, phi: f64) -> f64 {
+    let body = if V::DIM == 2 {
+        std::f64::consts::PI * r * r
+    } else {
+        4.0 / 3.0 * std::f64::consts::PI * r * r * r
+    };
+    (body / phi).powf(1.0 / V::DIM as f64)
+}
+
+fn add_all<V: Vector>(
+    mut b: WorldBuilder<V>,
+    pos: &[V],
+    vel: &[V],
+    rad: &[f64],
+    mass: &[f64],
+) -> WorldBuilder<V> {
+    for i in 0..pos.len() {
+        b = b.particle(pos[i], vel[i], rad[i], mass[i]);
+    }
+    b
+}
+
+fn sum_m_abs_v<V: Vector>(w: &World<V>) -> f64 {
+    let p = w.particles();
+    p.masses()
+        .iter()
+        .zip(p.velocities())
+        .map(|(&m, &v)| m * v.length_squared().sqrt())
+        .sum()
+}
+
+fn all_finite<V: Vector>(w: &World<V>) -> bool {
+    let p = w.particles();
+    p.positions().iter().all(|x| x.is_finite_vector())
+        && p.velocities().iter().all(|v| v.is_finite_vector())
+}
+
+/// Largest `r_i + r_j - |x_i - x_j|` over all pairs (brute force), 0 when nothing overlaps.
+fn max_overlap<V: Vector>(w: &World<V>) -> f64 {
+    let p = w.particles();
+    let (x, r) = (p.positions(), p.radii());
+    let mut worst = 0.0f64;
+    for i in 0..x.len() {
+        for j in i + 1..x.len() {
+            let d = (x[i] - x[j]).length_squared().sqrt();
+            worst = worst.max(r[i] + r[j] - d);
+        }
+    }
+    worst
+}
+
+// ---------------------------------------------------------------------------------------------
+// 1. Newton's cradle
+// ---------------------------------------------------------------------------------------------
+
+/// Five touching balls (spacing exactly 2) plus a striker from the left at speed 5.
+/// `reversed`: ids decrease along +x (the striker has the highest id).
+/// `gap`: centre spacing of the five balls.
+/// Returns the world and the ids ordered by x (striker first).
+fn cradle<V: Vector>(reversed: bool, gap: f64, striker_x: f64) -> (World<V>, Vec<usize>) {
+    let mut xs = vec![striker_x];
+    xs.extend((0..5).map(|i| i as f64 * gap));
+    if reversed {
+        xs.reverse();
+    }
+    let mut b = World::<V>::builder()
+        .dt(0.01)
+        .restitution(1.0)
+        .iterations(16, 4)
+        .broad_phase(BroadPhaseKind::Grid);
+    for &x in &xs {
+        let v = if x == striker_x { 5.0 } else { 0.0 };
+        b = b.particle(
+            V::from_slice(&[x, 0.0, 0.0]),
+            V::from_slice(&[v, 0.0, 0.0]),
+            1.0,
+            1.0,
+        );
+    }
+    let order: Vec<usize> = if reversed {
+        (0..6).rev().collect()
+    } else {
+        (0..6).collect()
+    };
+    (b.build().unwrap(), order)
+}
+
+fn check_cradle<V: Vector>(w: &World<V>, order: &[usize]) {
+    let v = w.particles().velocities();
+    let last = order[5];
+    let expected = V::from_slice(&[5.0, 0.0, 0.0]);
+    assert!(
+        (v[last] - expected).length_squared().sqrt() < 1e-9,
+        "last ball {last}: {:?}, all {v:?}",
+        v[last]
+    );
+    for &i in &order[..5] {
+        assert!(
+            v[i].length_squared().sqrt() < 1e-9,
+            "ball {i} should be at rest: {:?} (all {v:?})",
+            v[i]
+        );
+    }
+    // it has actually moved away from the others
+    let x = w.particles().positions();
+    assert!(x[last].get(0) > x[order[4]].get(0) + 2.0 + 1.0);
+}
+
+fn run_cradle<V: Vector>(reversed: bool) {
+    let (mut w, order) = cradle::<V>(reversed, 2.0, -6.0);
+    let p0 = w.momentum();
+    let e0 = w.kinetic_energy();
+    for _ in 0..400 {
+        w.step();
+    }
+    check_cradle(&w, &order);
+    assert!((w.momentum() - p0).length_squared().sqrt() < 1e-12);
+    assert!((w.kinetic_energy() - e0).abs() < 1e-12 * e0);
+}
+
+#[test]
+fn newtons_cradle_2d() {
+    run_cradle::<DVec2>(false);
+}
+
+#[test]
+fn newtons_cradle_3d() {
+    run_cradle::<DVec3>(false);
+}
+
+#[test]
+fn newtons_cradle_reversed_ids_2d() {
+    run_cradle::<DVec2>(true);
+}
+
+#[test]
+fn newtons_cradle_reversed_ids_3d() {
+    run_cradle::<DVec3>(true);
+}
+
+/// A compressed cradle: every neighbour overlaps by 1e-9, so the whole chain is one contact set
+/// in the first step and the impulse has to cross it within one velocity solve. In id order
+/// one sweep carries it through; in reverse id order each sweep advances it by one ball.
+fn run_compressed_cradle<V: Vector>(reversed: bool) {
+    let gap = 2.0 - 1e-9;
+    let (mut w, order) = cradle::<V>(reversed, gap, -gap);
+    let stats = w.step();
+    assert_eq!(stats.contacts, 5, "{stats:?}");
+    assert_eq!(stats.responses, 5, "{stats:?}");
+    assert!(!stats.capped, "{stats:?}");
+    if reversed {
+        assert_eq!(stats.velocity_iterations, 6, "{stats:?}");
+    } else {
+        assert_eq!(stats.velocity_iterations, 2, "{stats:?}");
+    }
+    // After the first step the impulse is already at the far end.
+    let v = w.particles().velocities();
+    assert_eq!(v[order[5]], V::from_slice(&[5.0, 0.0, 0.0]), "{v:?}");
+    for _ in 0..400 {
+        w.step();
+    }
+    check_cradle(&w, &order);
+}
+
+#[test]
+fn compressed_cradle_in_id_order_needs_one_sweep() {
+    run_compressed_cradle::<DVec2>(false);
+    run_compressed_cradle::<DVec3>(false);
+}
+
+#[test]
+fn compressed_cradle_in_reverse_id_order_needs_several_sweeps() {
+    run_compressed_cradle::<DVec2>(true);
+    run_compressed_cradle::<DVec3>(true);
+}
+
+/// With the sweep cap at 1, a reversed compressed chain cannot finish in one step, but it must
+/// still end up right (the remaining contacts are handled in later steps).
+#[test]
+fn compressed_reversed_cradle_with_one_sweep_still_ends_right() {
+    let gap = 2.0 - 1e-9;
+    let (w, order) = cradle::<DVec2>(true, gap, -gap);
+    let mut b = World::<DVec2>::builder().dt(0.01).iterations(1, 4);
+    for p in 0..6 {
+        b = b.particle(
+            w.particles().positions()[p],
+            w.particles().velocities()[p],
+            1.0,
+            1.0,
+        );
+    }
+    let mut w = b.build().unwrap();
+    let s = w.step();
+    assert!(s.capped, "{s:?}");
+    assert_eq!(s.velocity_iterations, 1);
+    for _ in 0..400 {
+        w.step();
+    }
+    check_cradle(&w, &order);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 2. Energy conserved at k = 1 in a dense gas
+// ---------------------------------------------------------------------------------------------
+
+fn gas<V: Vector>(n: usize, phi: f64, seed: u64, wall_k: f64, k: f64) -> World<V> {
+    let mut rng = Lcg::new(seed);
+    let r = 1.0;
+    let spacing = spacing_for::<V>(r, phi);
+    let (pos, half) = jittered_lattice::<V>(n, r, spacing, &mut rng);
+    let vel: Vec<V> = (0..n).map(|_| rng.vector(-5.0, 5.0)).collect();
+    let mass: Vec<f64> = (0..n).map(|_| rng.range(0.5, 2.0)).collect();
+    let b = World::<V>::builder()
+        .dt(0.02)
+        .restitution(k)
+        .domain(Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap())
+        .walls(wall_k);
+    add_all(b, &pos, &vel, &vec![r; n], &mass).build().unwrap()
+}
+
+fn energy_conserved<V: Vector>(n: usize) {
+    let mut w = gas::<V>(n, 0.3, 7, 1.0, 1.0);
+    assert_eq!(max_overlap(&w), 0.0, "lattice must start without overlap");
+    let e0 = w.kinetic_energy();
+    let mut responses = 0;
+    let mut capped = 0;
+    for _ in 0..300 {
+        let s = w.step();
+        responses += s.responses;
+        capped += s.capped as u32;
+    }
+    assert!(all_finite(&w));
+    let e1 = w.kinetic_energy();
+    let rel = (e1 - e0).abs() / e0;
+    assert!(
+        responses > n as u64,
+        "the gas must actually collide: {responses} responses"
+    );
+    assert!(rel < 1e-9, "KE {e0} -> {e1}, relative change {rel:e}");
+    eprintln!(
+        "{}D gas: {responses} responses, {capped} capped steps, dKE/KE = {rel:e}",
+        V::DIM
+    );
+}
+
+#[test]
+fn energy_conserved_at_k1_dense_gas_2d() {
+    energy_conserved::<DVec2>(1500);
+}
+
+#[test]
+fn energy_conserved_at_k1_dense_gas_3d() {
+    energy_conserved::<DVec3>(1000);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. Momentum conserved for any k (no walls, no gravity)
+// ---------------------------------------------------------------------------------------------
+
+fn cloud<V: Vector>(n: usize, k: f64, seed: u64) -> World<V> {
+    let mut rng = Lcg::new(seed);
+    // Dense, overlapping cloud with mixed radii and masses, converging on the centre.
+    let side = (n as f64).powf(1.0 / V::DIM as f64) * 2.0;
+    let mut b = World::<V>::builder().dt(0.01).restitution(k);
+    for _ in 0..n {
+        let x: V = rng.vector(-side / 2.0, side / 2.0);
+        let v = x * -0.5 + rng.vector(-2.0, 2.0);
+        b = b.particle(x, v, rng.range(0.5, 1.5), rng.range(0.5, 4.0));
+    }
+    b.build().unwrap()
+}
+
+fn momentum_conserved<V: Vector>(k: f64) {
+    let mut w = cloud::<V>(800, k, 11);
+    let p0 = w.momentum();
+    let scale = sum_m_abs_v(&w);
+    let mut responses = 0;
+    for _ in 0..100 {
+        responses += w.step().responses;
+    }
+    let dp = (w.momentum() - p0).length_squared().sqrt();
+    assert!(responses > 1000, "{responses} responses");
+    assert!(
+        dp < 1e-9 * scale,
+        "k={k}: |dP| = {dp:e}, sum m|v| = {scale}"
+    );
+}
+
+#[test]
+fn momentum_conserved_inelastic_2d() {
+    for k in [0.0, 0.3, 0.7] {
+        momentum_conserved::<DVec2>(k);
+    }
+}
+
+#[test]
+fn momentum_conserved_inelastic_3d() {
+    for k in [0.0, 0.3, 0.7] {
+        momentum_conserved::<DVec3>(k);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// 4. Energy never grows at k < 1
+// ---------------------------------------------------------------------------------------------
+
+fn energy_never_grows<V: Vector>(n: usize) {
+    // (0.5, 1.0): elastic walls, so the loss must come from particle collisions
+    for (k, wall_k) in [(0.0, 0.0), (0.5, 1.0), (0.9, 0.3), (0.99, 0.99)] {
+        let mut w = gas::<V>(n, 0.45, 3, wall_k, k);
+        let e0 = w.kinetic_energy();
+        let mut before = e0;
+        for step in 0..150 {
+            w.step();
+            let after = w.kinetic_energy();
+            assert!(
+                after <= before + 1e-9 * before,
+                "k={k} wall_k={wall_k} step {step}: KE {before} -> {after}"
+            );
+            before = after;
+        }
+        assert!(
+            before < e0,
+            "k={k}: nothing was dissipated ({e0} -> {before})"
+        );
+    }
+}
+
+#[test]
+fn energy_never_grows_below_k1_2d() {
+    energy_never_grows::<DVec2>(600);
+}
+
+#[test]
+fn energy_never_grows_below_k1_3d() {
+    energy_never_grows::<DVec3>(500);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Restitution at world level
+// ---------------------------------------------------------------------------------------------
+
+/// An oblique collision of unequal masses through `World::step`: along the normal the
+/// separation speed is `k` times the approach speed, the tangent parts are untouched, momentum
+/// is kept and the kinetic energy drops by `(1 - k^2) mu u^2 / 2` (mu the reduced mass).
+fn restitution_at_world_level<V: Vector>() {
+    let dt = 1e-6;
+    let (m1, m2) = (1.0, 3.0);
+    let x1 = V::ZERO;
+    let x2 = V::from_slice(&[1.5, 0.8, 0.6]);
+    let v1 = V::from_slice(&[4.0, 1.0, -0.5]);
+    let v2 = V::from_slice(&[-1.0, -2.0, 0.25]);
+    for k in [0.0, 0.3, 0.7, 1.0] {
+        let mut w = World::<V>::builder()
+            .dt(dt)
+            .restitution(k)
+            .particle(x1, v1, 1.0, m1)
+            .particle(x2, v2, 1.5, m2)
+            .build()
+            .unwrap();
+        let (p0, e0) = (w.momentum(), w.kinetic_energy());
+        let s = w.step();
+        // one response is enough; at k = 0 rounding can make the engine respond again (see
+        // `perfectly_inelastic_pair_does_not_exhaust_the_sweeps`), which changes nothing
+        assert_eq!(s.contacts, 1, "{s:?}");
+        assert!(s.responses >= 1, "{s:?}");
+        // the normal the engine used: from the positions after integration
+        let d = (x1 + v1 * dt) - (x2 + v2 * dt);
+        let n = d * (1.0 / d.length_squared().sqrt());
+        let (a, b) = (w.particles().velocities()[0], w.particles().velocities()[1]);
+        let approach = n.dot(v1 - v2);
+        assert!(approach < 0.0);
+        let separation = n.dot(a - b);
+        assert!(
+            (separation + k * approach).abs() < 1e-12,
+            "k={k}: separation {separation}, approach {approach}"
+        );
+        let tangent = |v: V| v - n * n.dot(v);
+        assert!((tangent(a) - tangent(v1)).length_squared().sqrt() < 1e-12);
+        assert!((tangent(b) - tangent(v2)).length_squared().sqrt() < 1e-12);
+        assert!((w.momentum() - p0).length_squared().sqrt() < 1e-12);
+        let mu = m1 * m2 / (m1 + m2);
+        let loss = 0.5 * mu * approach * approach * (1.0 - k * k);
+        assert!(
+            (e0 - w.kinetic_energy() - loss).abs() < 1e-12 * e0,
+            "k={k}: lost {}, expected {loss}",
+            e0 - w.kinetic_energy()
+        );
+    }
+}
+
+#[test]
+fn restitution_at_world_level_2d() {
+    restitution_at_world_level::<DVec2>();
+}
+
+#[test]
+fn restitution_at_world_level_3d() {
+    restitution_at_world_level::<DVec3>();
+}
+
+/// ENGINE BUG (minor). After a k = 0 response the normal relative velocity is zero up to
+/// rounding, and the trap-rule test `p_rel . v_rel < 0` has no tolerance, so a rounding residue
+/// of -5.6e-17 counts as "still approaching": the same isolated pair is answered again in every
+/// sweep until the cap (16 sweeps, 16 responses, `capped: true`). Velocities stay right (the
+/// residue is ~1e-16), but every step with a k = 0 contact burns the whole sweep budget and
+/// `StepStats::capped` reports a non-converged solve that is in fact converged (a k = 0 column
+/// on a floor reports `capped` in 2999 of 3000 steps). Same scene in 3D, or m2 = 1: 1 response.
+#[test]
+#[ignore = "engine bug: at k = 0 rounding keeps p_rel . v_rel slightly negative, so one pair is re-answered until the sweep cap (16 responses, capped)"]
+fn perfectly_inelastic_pair_does_not_exhaust_the_sweeps() {
+    let mut w = World::<DVec2>::builder()
+        .dt(1e-6)
+        .restitution(0.0)
+        .particle(DVec2::ZERO, DVec2::new(4.0, 1.0), 1.0, 1.0)
+        .particle(DVec2::new(1.5, 0.8), DVec2::new(-1.0, -2.0), 1.5, 3.0)
+        .build()
+        .unwrap();
+    let s = w.step();
+    assert_eq!(s.contacts, 1);
+    assert!(
+        !s.capped && s.responses <= 2,
+        "one isolated k = 0 pair: {s:?}"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// 8. Trap rule at world level
+// ---------------------------------------------------------------------------------------------
+
+fn trap_rule<V: Vector>() {
+    // overlapping by 0.8 along a skew direction, moving apart (and sideways)
+    let dir = {
+        let c = [0.6, 0.8, 0.0];
+        let v = V::from_slice(&c);
+        if V::DIM == 3 {
+            V::from_slice(&[0.48, 0.64, 0.6])
+        } else {
+            v
+        }
+    };
+    let (r1, r2) = (1.0, 1.5);
+    let x1 = V::from_slice(&[0.25, -0.5, 0.125]);
+    let x2 = x1 + dir * 1.7;
+    let v1 = dir * -0.75 + V::from_slice(&[0.0, 0.0, 0.3]) + V::from_slice(&[-0.1, 0.2, 0.0]);
+    let v2 = dir * 2.0 + V::from_slice(&[0.4, -0.3, 0.1]);
+    // sanity: moving apart
+    assert!((x1 - x2).dot(v1 - v2) > 0.0);
+    for kind in [BroadPhaseKind::Brute, BroadPhaseKind::Grid] {
+        for k in [0.0, 0.5, 1.0] {
+            let mut w = World::<V>::builder()
+                .dt(0.01)
+                .restitution(k)
+                .broad_phase(kind)
+                .particle(x1, v1, r1, 1.0)
+                .particle(x2, v2, r2, 3.0)
+                .build()
+                .unwrap();
+            let s = w.step();
+            assert_eq!(s.contacts, 1, "still overlapping after the move: {s:?}");
+            assert_eq!(s.responses, 0, "{s:?}");
+            let v = w.particles().velocities();
+            assert_eq!(v[0], v1);
+            assert_eq!(v[1], v2);
+            let x = w.particles().positions();
+            let d = (x[0] - x[1]).length_squared().sqrt();
+            assert!(d >= r1 + r2 - 1e-9, "distance {d} after separation");
+        }
+    }
+}
+
+#[test]
+fn trap_rule_keeps_velocities_and_separates_2d() {
+    trap_rule::<DVec2>();
+}
+
+#[test]
+fn trap_rule_keeps_velocities_and_separates_3d() {
+    trap_rule::<DVec3>();
+}
+
+// ---------------------------------------------------------------------------------------------
+// 9. Plane bounce at world level
+// ---------------------------------------------------------------------------------------------
+
+fn plane_bounce<V: Vector>() {
+    let dt = 0.01;
+    let g = -9.81;
+    let gravity = V::from_slice(&[0.0, g, 0.0]);
+    let floor = Plane::new(V::ZERO, V::from_slice(&[0.0, 2.0, 0.0]), 0.0).unwrap();
+    for k in [0.0, 0.5, 1.0] {
+        let floor = Plane::new(floor.point(), floor.normal(), k).unwrap();
+        let vx = 1.25;
+        let vz = -0.5;
+        let v0 = V::from_slice(&[vx, -3.0, vz]);
+        let x0 = V::from_slice(&[0.5, 1.2, 0.25]);
+        let mut w = World::<V>::builder()
+            .dt(dt)
+            .gravity(gravity)
+            .restitution(1.0)
+            .plane(floor)
+            .particle(x0, v0, 1.0, 2.0)
+            .build()
+            .unwrap();
+        // Step until the particle reaches the floor, checking free fall on the way.
+        let mut v_before = w.particles().velocities()[0];
+        let mut hit = false;
+        for _ in 0..100 {
+            // the velocity the engine will have after gravity, computed the same way
+            let v_after_gravity = v_before + gravity * dt;
+            let x_after = w.particles().positions()[0] + v_after_gravity * dt;
+            let s = w.step();
+            let v = w.particles().velocities()[0];
+            if x_after.get(1) < 1.0 {
+                assert_eq!(s.plane_contacts, 1);
+                assert_eq!(s.responses, 1);
+                // V' = V_T - k V_N with N = +y: the tangent (x, z) is kept bit for bit
+                let expected = V::from_slice(&[vx, -k * v_after_gravity.get(1), vz]);
+                assert_eq!(v, expected, "k={k}: {v_after_gravity:?} -> {v:?}");
+                assert!(w.particles().positions()[0].get(1) >= 1.0 - 1e-12);
+                hit = true;
+                break;
+            }
+            assert_eq!(s.plane_contacts, 0);
+            assert_eq!(v, v_after_gravity);
+            v_before = v;
+        }
+        assert!(hit, "never reached the floor");
+    }
+}
+
+#[test]
+fn plane_bounce_tangent_minus_k_normal_2d() {
+    plane_bounce::<DVec2>();
+}
+
+#[test]
+fn plane_bounce_tangent_minus_k_normal_3d() {
+    plane_bounce::<DVec3>();
+}
+
+/// A tilted plane: V' = V_T - k V_N against the plane's own normal.
+#[test]
+fn tilted_plane_bounce_3d() {
+    let n = DVec3::new(0.3, 1.0, -0.2).normalize();
+    let k = 0.6;
+    let plane = Plane::new(DVec3::new(1.0, -2.0, 0.5), n, k).unwrap();
+    // place the particle 0.9 from the plane, moving into it, no gravity
+    let x0 = plane.point() + n * 0.9 + DVec3::new(0.2, 0.0, 1.0).cross(n);
+    let v0 = DVec3::new(0.7, -4.0, 1.1);
+    assert!(n.dot(v0) < 0.0);
+    let mut w = World::<DVec3>::builder()
+        .dt(0.001)
+        .plane(plane)
+        .particle(x0, v0, 1.0, 1.0)
+        .build()
+        .unwrap();
+    w.step();
+    let v = w.particles().velocities()[0];
+    let vn = n * n.dot(v0);
+    let expected = (v0 - vn) - vn * k;
+    assert!((v - expected).length() < 1e-12, "{v} vs {expected}");
+    assert!((n.dot(v) + k * n.dot(v0)).abs() < 1e-12);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 10. A settling pile
+// ---------------------------------------------------------------------------------------------
+
+/// 300 particles dropped into a walled box under gravity, k = 0.2, dt = 0.005.
+/// Checks no NaN and that every particle stays in the box (centre at least r from each wall)
+/// along the way, and returns the world after `steps`.
+fn settling_pile<V: Vector>(n: usize, steps: usize) -> World<V> {
+    let mut rng = Lcg::new(99);
+    let r = 1.0;
+    let width = if V::DIM == 2 { 40.0 } else { 16.0 };
+    let height = 80.0;
+    let min = V::from_slice(&[-width / 2.0, 0.0, -width / 2.0]);
+    let max = V::from_slice(&[width / 2.0, height, width / 2.0]);
+    let domain = Aabb::new(min, max).unwrap();
+    let mut b = World::<V>::builder()
+        .dt(0.005)
+        .gravity(V::from_slice(&[0.0, -9.81, 0.0]))
+        .restitution(0.2)
+        .domain(domain)
+        .walls(0.2);
+    // a loose jittered lattice filling the lower part of the box, small random velocities
+    let spacing = 2.4;
+    let per_row = (width / spacing) as usize;
+    for i in 0..n {
+        let (a, rest) = (i % per_row, i / per_row);
+        let (c, layer) = if V::DIM == 3 {
+            (rest % per_row, rest / per_row)
+        } else {
+            (0, rest)
+        };
+        let x = -width / 2.0 + (a as f64 + 0.5) * spacing + rng.range(-0.15, 0.15);
+        let z = -width / 2.0 + (c as f64 + 0.5) * spacing + rng.range(-0.15, 0.15);
+        let y = 2.0 + layer as f64 * spacing + rng.range(-0.15, 0.15);
+        assert!(y + r < height);
+        b = b.particle(
+            V::from_slice(&[x, y, z]),
+            rng.vector(-1.0, 1.0),
+            r,
+            rng.range(0.8, 1.2),
+        );
+    }
+    let mut w = b.build().unwrap();
+    let inside = |w: &World<V>, step: usize| {
+        assert!(all_finite(w), "NaN or infinity at step {step}");
+        for (i, x) in w.particles().positions().iter().enumerate() {
+            for a in 0..V::DIM {
+                assert!(
+                    x.get(a) >= min.get(a) + r - 1e-9 && x.get(a) <= max.get(a) - r + 1e-9,
+                    "step {step}: particle {i} left the box: {x:?}"
+                );
+            }
+        }
+    };
+    for s in 0..steps {
+        w.step();
+        if s % 100 == 99 {
+            inside(&w, s);
+        }
+    }
+    inside(&w, steps);
+    w
+}
+
+fn assert_pile_has_not_sunk<V: Vector>(w: &World<V>) {
+    let r = 1.0;
+    let overlap = max_overlap(w);
+    let ke = w.kinetic_energy();
+    eprintln!("{}D pile: max overlap {overlap:.3e}, KE {ke:.3e}", V::DIM);
+    assert!(
+        overlap < 0.05 * r,
+        "the pile sinks into itself: max overlap {overlap} (radius {r}), KE {ke}"
+    );
+}
+
+#[test]
+fn settling_pile_2d_stays_finite_and_in_the_box() {
+    settling_pile::<DVec2>(300, 3000);
+}
+
+/// ENGINE BUG (see `resting_column_does_not_sink`): after 3000 steps the 2D pile's maximum
+/// overlap is 0.166 (16.6 % of the radius) and it never comes to rest: its kinetic energy stays
+/// ~32 from step 1000 to step 3000 while KE + PE stays flat (39912 -> 39921), i.e. the position
+/// phase (which lifts overlapping particles against gravity without touching velocities) feeds
+/// back the energy the k = 0.2 collisions remove. More solver iterations do not cure it
+/// (1000/20 sweeps: overlap 0.20, KE 87).
+#[test]
+#[ignore = "engine bug: a 2D pile sinks into itself and never settles (max overlap 0.166 r, KE ~32 after 3000 steps)"]
+fn settling_pile_2d_does_not_sink_into_itself() {
+    let w = settling_pile::<DVec2>(300, 3000);
+    assert_pile_has_not_sunk(&w);
+}
+
+#[test]
+fn settling_pile_3d() {
+    // Only ~8 layers deep, so it stays (just) under the threshold despite the bug below.
+    let w = settling_pile::<DVec3>(300, 3000);
+    assert_pile_has_not_sunk(&w);
+}
+
+/// The smallest reproduction of the sinking pile: a column of 10 touching balls standing on a
+/// floor (k = 0.2, g = 9.81, dt = 0.005, default iterations 16/4). It should simply stand.
+///
+/// What happens: the position phase leaves each separated pair at *exactly* `r1 + r2`, and
+/// detection is strict (`distance < r1 + r2`), so on the next step about half of the resting
+/// contacts are not in the contact list; their downward velocities are never removed. The upper
+/// balls' velocities grow step after step (top ball: v_y = -0.54 after 10 steps, -1.75 after
+/// 60, although it should stay ~ -g dt = -0.05), only the position phase holds them up, and it
+/// loses: the maximum overlap passes 5 % of the radius at step 38 and is 0.22 r after 3000
+/// steps. A 20-ball column ends with overlap 1.7 r (balls pass through each other).
+///
+/// Checked on a patched copy of the engine (not applied here): a contact margin (detecting
+/// `distance < (r1 + r2) (1 + 1e-9)`) keeps the contacts, but with the default 16 sweeps the
+/// k = 0.2 column still sinks (a resting stack with k > 0 bounces along the chain and the
+/// sweeps never converge); margin + 1000 sweeps, or margin + treating approaches slower than
+/// 0.1 as k = 0, make it stand (overlap 1e-3 to 3e-3 r). Without the margin even 1000 sweeps sink.
+#[test]
+#[ignore = "engine bug: resting contacts left at exactly r1+r2 drop out of the contact list, so a 10-ball column sinks (overlap 0.22 r)"]
+fn resting_column_does_not_sink() {
+    let n = 10;
+    let mut b = World::<DVec2>::builder()
+        .dt(0.005)
+        .gravity(DVec2::new(0.0, -9.81))
+        .restitution(0.2)
+        .plane(Plane::new(DVec2::ZERO, DVec2::Y, 0.2).unwrap());
+    for i in 0..n {
+        b = b.particle(DVec2::new(0.0, 1.0 + 2.0 * i as f64), DVec2::ZERO, 1.0, 1.0);
+    }
+    let mut w = b.build().unwrap();
+    for step in 0..3000 {
+        w.step();
+        let overlap = max_overlap(&w);
+        let top_v = w.particles().velocities()[n - 1].y;
+        assert!(
+            overlap < 0.05 && top_v > -0.5,
+            "step {step}: max overlap {overlap}, top ball v_y {top_v}"
+        );
+    }
+    let top = w.particles().positions()[n - 1].y;
+    assert!(
+        (top - 19.0).abs() < 0.05,
+        "top ball at {top}, should be ~19"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// 11. Coincident centres
+// ---------------------------------------------------------------------------------------------
+
+fn coincident<V: Vector>() {
+    let x = V::from_slice(&[1.5, -2.25, 0.75]);
+    for (v1, v2) in [
+        (V::ZERO, V::ZERO),
+        (
+            V::from_slice(&[1.0, 2.0, 3.0]),
+            V::from_slice(&[-1.0, 0.5, 0.0]),
+        ),
+    ] {
+        for kind in [BroadPhaseKind::Brute, BroadPhaseKind::Grid] {
+            let mut w = World::<V>::builder()
+                .dt(0.001)
+                .broad_phase(kind)
+                .particle(x, v1, 1.0, 1.0)
+                .particle(x, v2, 1.0, 2.0)
+                .particle(x, v2, 0.5, 0.5)
+                .build()
+                .unwrap();
+            let p0 = w.momentum();
+            w.step();
+            assert!(all_finite(&w), "{:?}", w.particles());
+            // momentum is untouched by separation and kept by the responses
+            assert!((w.momentum() - p0).length_squared().sqrt() < 1e-12);
+            // three coincident bodies separate as a chain (one new contact per step), so give
+            // the geometric convergence time
+            for _ in 0..200 {
+                w.step();
+            }
+            assert!(all_finite(&w));
+            let overlap = max_overlap(&w);
+            assert!(overlap < 1e-9, "still overlapping by {overlap}");
+        }
+    }
+    // exactly two, at rest: separated in a single step
+    let mut w = World::<V>::builder()
+        .particle(x, V::ZERO, 1.0, 1.0)
+        .particle(x, V::ZERO, 1.0, 1.0)
+        .build()
+        .unwrap();
+    w.step();
+    assert!(all_finite(&w));
+    let p = w.particles().positions();
+    assert!((p[0] - p[1]).length_squared().sqrt() >= 2.0 - 1e-12);
+}
+
+#[test]
+fn coincident_centres_separate_without_nan_2d() {
+    coincident::<DVec2>();
+}
+
+#[test]
+fn coincident_centres_separate_without_nan_3d() {
+    coincident::<DVec3>();
+}
