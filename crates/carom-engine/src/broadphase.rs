@@ -43,6 +43,10 @@ pub enum BroadPhaseKind {
 /// of threads.
 pub(crate) const CHUNK: usize = 1024;
 
+/// Below this many particles every phase runs on the calling thread: handing out work to the
+/// pool costs more than it saves. Serial and parallel runs give the same bits either way.
+pub const PARALLEL_MIN: usize = 16_384;
+
 /// Runs `search(i, out)` for every particle, in parallel over fixed chunks, each chunk
 /// writing into its own reused buffer, then concatenates the buffers in chunk order into
 /// `pairs`. `search` must push pairs `(i, j)` with `j > i`; each chunk is sorted, so the
@@ -59,17 +63,19 @@ pub(crate) fn collect_pairs<F>(
     if buffers.len() < chunks {
         buffers.resize_with(chunks, Vec::new);
     }
-    buffers[..chunks]
-        .par_iter_mut()
-        .enumerate()
-        .for_each(|(c, out)| {
-            out.clear();
-            let end = ((c + 1) * CHUNK).min(n);
-            for i in c * CHUNK..end {
-                search(i, out);
-            }
-            out.sort_unstable();
-        });
+    let work = |(c, out): (usize, &mut Vec<Pair>)| {
+        out.clear();
+        let end = ((c + 1) * CHUNK).min(n);
+        for i in c * CHUNK..end {
+            search(i, out);
+        }
+        out.sort_unstable();
+    };
+    if n >= PARALLEL_MIN {
+        buffers[..chunks].par_iter_mut().enumerate().for_each(work);
+    } else {
+        buffers[..chunks].iter_mut().enumerate().for_each(work);
+    }
     pairs.clear();
     for b in &buffers[..chunks] {
         pairs.extend_from_slice(b);

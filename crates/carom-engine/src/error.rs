@@ -47,6 +47,9 @@ pub enum EngineError {
         /// The largest total allowed.
         max: u64,
     },
+    /// A resume order that is not a permutation of the particle ids.
+    #[error("storage order must list every particle id exactly once")]
+    StorageOrder,
     /// More particles than ids (u32) can name.
     #[error("too many particles: {0} (at most {max})", max = u32::MAX)]
     TooManyParticles(usize),

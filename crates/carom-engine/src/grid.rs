@@ -17,7 +17,7 @@
 //! one largest diameter wide this is the lecture's 3x3 (3x3x3) block; smaller cells or mixed
 //! radii (its radius 1 and 3 demo) widen the search instead of missing contacts.
 
-use crate::broadphase::{collect_pairs, BroadPhase, Pair};
+use crate::broadphase::{collect_pairs, BroadPhase, Pair, PARALLEL_MIN};
 use crate::domain::Aabb;
 use crate::error::EngineError;
 use crate::response::is_overlapping;
@@ -52,6 +52,56 @@ pub struct GridLayout {
 }
 
 impl GridLayout {
+    /// A layout over `bounds` with `cells` per axis, or (when `None`) cells about one largest
+    /// diameter wide, coarsened until there are at most `max_cells`.
+    pub fn fit<V: Vector>(
+        bounds: &Aabb<V>,
+        max_radius: f64,
+        cells: Option<[usize; 3]>,
+        max_cells: f64,
+    ) -> Self {
+        let diameter = 2.0 * max_radius;
+        let mut extent = [1.0f64; 3];
+        for (a, e) in extent.iter_mut().enumerate().take(V::DIM) {
+            // A degenerate box (all particles in one plane) still needs a cell of some size.
+            *e = (bounds.max.get(a) - bounds.min.get(a))
+                .max(diameter)
+                .max(f64::MIN_POSITIVE);
+        }
+        let cells = match cells {
+            Some(c) => c,
+            None => {
+                let mut cells = [1usize; 3];
+                for a in 0..V::DIM {
+                    let fit = (extent[a] / diameter).floor();
+                    cells[a] = if fit.is_finite() && fit >= 1.0 {
+                        fit.min(1e9) as usize
+                    } else {
+                        1
+                    };
+                }
+                let total: f64 = cells.iter().map(|&c| c as f64).product();
+                if total > max_cells {
+                    let shrink = (total / max_cells).powf(1.0 / V::DIM as f64);
+                    for c in cells.iter_mut().take(V::DIM) {
+                        *c = ((*c as f64 / shrink).floor() as usize).max(1);
+                    }
+                }
+                cells
+            }
+        };
+        let mut layout = GridLayout {
+            origin: [0.0; 3],
+            cell_size: [1.0; 3],
+            cells,
+        };
+        for a in 0..V::DIM {
+            layout.origin[a] = bounds.min.get(a);
+            layout.cell_size[a] = extent[a] / cells[a] as f64;
+        }
+        layout
+    }
+
     /// The lecture's hash function: normalise, scale, clamp, floor.
     #[inline]
     pub fn cell_coords<V: Vector>(&self, x: V) -> [usize; 3] {
@@ -145,46 +195,9 @@ impl<V: Vector> Grid<V> {
             Some(d) => d,
             None => bounding_box(positions),
         };
-        let diameter = 2.0 * max_radius;
-        let mut cells = [1usize; 3];
-        let mut extent = [1.0f64; 3];
-        for (a, e) in extent.iter_mut().enumerate().take(V::DIM) {
-            // A degenerate box (all particles in one plane) still needs a cell of some size.
-            *e = (bounds.max.get(a) - bounds.min.get(a))
-                .max(diameter)
-                .max(f64::MIN_POSITIVE);
-        }
-        match self.requested_cells {
-            Some(c) => cells = c,
-            None => {
-                for a in 0..V::DIM {
-                    let fit = (extent[a] / diameter).floor();
-                    cells[a] = if fit.is_finite() && fit >= 1.0 {
-                        fit.min(1e9) as usize
-                    } else {
-                        1
-                    };
-                }
-                // Never more than a few cells per particle: an empty cell costs a visit.
-                let limit = ((4 * positions.len()).max(64) as f64).min(MAX_CELLS as f64);
-                let total: f64 = cells.iter().map(|&c| c as f64).product();
-                if total > limit {
-                    let shrink = (total / limit).powf(1.0 / V::DIM as f64);
-                    for c in cells.iter_mut().take(V::DIM) {
-                        *c = ((*c as f64 / shrink).floor() as usize).max(1);
-                    }
-                }
-            }
-        }
-        let mut layout = GridLayout {
-            origin: [0.0; 3],
-            cell_size: [1.0; 3],
-            cells,
-        };
-        for a in 0..V::DIM {
-            layout.origin[a] = bounds.min.get(a);
-            layout.cell_size[a] = extent[a] / cells[a] as f64;
-        }
+        // Never more than a few cells per particle: an empty cell costs a visit.
+        let limit = ((4 * positions.len()).max(64) as f64).min(MAX_CELLS as f64);
+        let layout = GridLayout::fit(&bounds, max_radius, self.requested_cells, limit);
         self.layout = layout;
     }
 
@@ -193,10 +206,15 @@ impl<V: Vector> Grid<V> {
         let layout = self.layout;
         let n = positions.len();
         self.cell_of.resize(n, 0);
-        self.cell_of
-            .par_iter_mut()
-            .zip(positions.par_iter())
-            .for_each(|(cell, &x)| *cell = layout.linear(layout.cell_coords(x)) as u32);
+        let bin = |(cell, &x): (&mut u32, &V)| *cell = layout.linear(layout.cell_coords(x)) as u32;
+        if n >= PARALLEL_MIN {
+            self.cell_of
+                .par_iter_mut()
+                .zip(positions.par_iter())
+                .for_each(bin);
+        } else {
+            self.cell_of.iter_mut().zip(positions.iter()).for_each(bin);
+        }
         let total = layout.total();
         self.cell_start.clear();
         self.cell_start.resize(total + 1, 0);
@@ -219,7 +237,8 @@ impl<V: Vector> Grid<V> {
     }
 }
 
-fn bounding_box<V: Vector>(positions: &[V]) -> Aabb<V> {
+/// The smallest box holding every position (a zero box when there are none).
+pub(crate) fn bounding_box<V: Vector>(positions: &[V]) -> Aabb<V> {
     let (min, max) = positions
         .par_iter()
         .fold(

@@ -6,14 +6,13 @@ use crate::vector::Vector;
 /// Every particle's state. Ids are indices `0..len()` and never change.
 ///
 /// Invariants (checked by [`Particles::push`]): radius and mass are finite and > 0,
-/// position and velocity are finite; `inverse_mass[i] == 1 / mass[i]`.
+/// position and velocity are finite.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Particles<V> {
     pub(crate) position: Vec<V>,
     pub(crate) velocity: Vec<V>,
     pub(crate) radius: Vec<f64>,
     pub(crate) mass: Vec<f64>,
-    pub(crate) inverse_mass: Vec<f64>,
 }
 
 impl<V: Vector> Particles<V> {
@@ -24,7 +23,6 @@ impl<V: Vector> Particles<V> {
             velocity: Vec::new(),
             radius: Vec::new(),
             mass: Vec::new(),
-            inverse_mass: Vec::new(),
         }
     }
 
@@ -37,8 +35,7 @@ impl<V: Vector> Particles<V> {
         self.position.try_reserve(additional)?;
         self.velocity.try_reserve(additional)?;
         self.radius.try_reserve(additional)?;
-        self.mass.try_reserve(additional)?;
-        self.inverse_mass.try_reserve(additional)
+        self.mass.try_reserve(additional)
     }
 
     /// Adds a particle and returns its id. Position in length units, velocity in length per
@@ -70,7 +67,6 @@ impl<V: Vector> Particles<V> {
         self.velocity.push(velocity);
         self.radius.push(radius);
         self.mass.push(mass);
-        self.inverse_mass.push(1.0 / mass);
         Ok(index)
     }
 
@@ -128,7 +124,7 @@ mod tests {
     fn push_validates() {
         let mut p = Particles::<DVec2>::new();
         assert_eq!(p.push(DVec2::ZERO, DVec2::X, 1.0, 2.0), Ok(0));
-        assert_eq!(p.inverse_mass[0], 0.5);
+        assert_eq!(p.masses(), &[2.0]);
         assert!(matches!(
             p.push(DVec2::ZERO, DVec2::X, 0.0, 1.0),
             Err(EngineError::Radius { index: 1, .. })

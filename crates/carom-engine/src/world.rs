@@ -5,23 +5,34 @@
 //! 2. broad phase: every overlapping pair, sorted (see [`crate::broadphase`]);
 //! 3. plane contacts: every particle within its radius of a plane;
 //! 4. velocity phase, then position phase (see [`crate::solver`]).
+//!
+//! Storage order: every [`REORDER_INTERVAL`] steps the particles' arrays are sorted along
+//! space (by the cell of a grid one largest diameter fine, row by row), so that neighbours sit
+//! next to each other in memory. Ids never change: [`World::particles`] and every diagnostic
+//! are in id order. The sort depends only on the particles' state, never on the broad phase or
+//! the thread count, so neither can change a single bit of the result.
 
-use crate::broadphase::{BroadPhase, BroadPhaseKind, Pair};
+use crate::broadphase::{BroadPhase, BroadPhaseKind, Pair, PARALLEL_MIN};
 use crate::brute::BruteForce;
 use crate::diagnostics::{self, StepStats};
 use crate::domain::Aabb;
 use crate::error::EngineError;
-use crate::grid::Grid;
+use crate::grid::{bounding_box, Grid, GridLayout};
 use crate::particles::Particles;
 use crate::plane::{check_restitution, Plane};
-use crate::solver::{self, PlaneContact};
+use crate::solver::{self, Blocks, Bodies, PlaneContact};
 use crate::vector::Vector;
 use rayon::prelude::*;
+use std::cell::OnceCell;
 
 /// Default cap on velocity sweeps per step.
-pub const DEFAULT_VELOCITY_ITERATIONS: u32 = 16;
+pub const DEFAULT_VELOCITY_ITERATIONS: u32 = 32;
 /// Default position-correction sweeps per step.
 pub const DEFAULT_POSITION_ITERATIONS: u32 = 4;
+/// Steps between two spatial sorts of the particle arrays.
+pub const REORDER_INTERVAL: u64 = 32;
+/// Smallest block of storage slots the solver hands to one task.
+const MIN_BLOCK: usize = 1024;
 
 /// Parameters that stay fixed while stepping (some can be changed with setters).
 #[derive(Clone, Debug, PartialEq)]
@@ -42,6 +53,12 @@ pub struct WorldConfig<V> {
     pub broad_phase: BroadPhaseKind,
     /// Grid cells per axis; `None` derives them from the largest radius.
     pub grid_cells: Option<Vec<usize>>,
+    /// Contacts approaching slower than this (length per time) do not bounce when their
+    /// restitution is below 1: they are resting contacts, and bouncing them makes stacks jitter
+    /// and sink. `None`: twice what gravity adds in one step, `2 |g| dt` (zero without
+    /// gravity, where every contact follows the lecture's formula exactly). `Some(0.0)` turns
+    /// this off. Restitution 1 always bounces, so energy stays exact.
+    pub resting_speed: Option<f64>,
 }
 
 impl<V: Vector> Default for WorldConfig<V> {
@@ -55,6 +72,7 @@ impl<V: Vector> Default for WorldConfig<V> {
             domain: None,
             broad_phase: BroadPhaseKind::Grid,
             grid_cells: None,
+            resting_speed: None,
         }
     }
 }
@@ -66,6 +84,7 @@ pub struct WorldBuilder<V: Vector> {
     walls: Option<f64>,
     planes: Vec<Plane<V>>,
     particles: Particles<V>,
+    resume: Option<(u64, Vec<u32>)>,
     first_error: Option<EngineError>,
 }
 
@@ -76,6 +95,7 @@ impl<V: Vector> Default for WorldBuilder<V> {
             walls: None,
             planes: Vec::new(),
             particles: Particles::new(),
+            resume: None,
             first_error: None,
         }
     }
@@ -118,6 +138,11 @@ impl<V: Vector> WorldBuilder<V> {
         self.config.broad_phase = kind;
         self
     }
+    /// Resting-contact speed (see [`WorldConfig::resting_speed`]), >= 0.
+    pub fn resting_speed(mut self, speed: f64) -> Self {
+        self.config.resting_speed = Some(speed);
+        self
+    }
     /// Grid cells per axis (one entry per dimension, each >= 1).
     pub fn grid_cells(mut self, cells: &[usize]) -> Self {
         self.config.grid_cells = Some(cells.to_vec());
@@ -141,6 +166,14 @@ impl<V: Vector> WorldBuilder<V> {
         self
     }
 
+    /// Continues a run: the world starts as if it had taken `steps_taken` steps, with its
+    /// particles in `storage_order` (ids by storage slot, from [`World::storage_order`]). With
+    /// the particles of the original at that step, the continuation is bit-identical.
+    pub fn resume(mut self, steps_taken: u64, storage_order: Vec<u32>) -> Self {
+        self.resume = Some((steps_taken, storage_order));
+        self
+    }
+
     /// Checks everything and builds the world.
     pub fn build(self) -> Result<World<V>, EngineError> {
         if let Some(e) = self.first_error {
@@ -152,6 +185,11 @@ impl<V: Vector> WorldBuilder<V> {
             return Err(EngineError::NonFinite("gravity"));
         }
         check_restitution(config.restitution)?;
+        if let Some(speed) = config.resting_speed {
+            if !(speed.is_finite() && speed >= 0.0) {
+                return Err(EngineError::NonFinite("resting speed (must be >= 0)"));
+            }
+        }
         let mut planes = self.planes;
         if let Some(k) = self.walls {
             let domain = config.domain.ok_or(EngineError::EmptyDomain)?;
@@ -163,14 +201,46 @@ impl<V: Vector> WorldBuilder<V> {
                 Box::new(Grid::new(config.domain, config.grid_cells.as_deref())?)
             }
         };
+        let n = self.particles.len();
+        let (steps, ids) = match self.resume {
+            None => (0, (0..n as u32).collect()),
+            Some((steps, order)) => (steps, order),
+        };
+        let mut slots = vec![u32::MAX; n];
+        for (slot, &id) in ids.iter().enumerate() {
+            match slots.get_mut(id as usize) {
+                Some(s) if *s == u32::MAX => *s = slot as u32,
+                _ => return Err(EngineError::StorageOrder),
+            }
+        }
+        if ids.len() != n {
+            return Err(EngineError::StorageOrder);
+        }
+        let mut store = Particles::new();
+        for &id in &ids {
+            let id = id as usize;
+            let p = &self.particles;
+            store.position.push(p.position[id]);
+            store.velocity.push(p.velocity[id]);
+            store.radius.push(p.radius[id]);
+            store.mass.push(p.mass[id]);
+        }
         Ok(World {
             config,
             planes,
-            particles: self.particles,
+            store,
+            ids,
+            slots,
+            by_id: OnceCell::new(),
+            contacts_by_id: OnceCell::new(),
             broad_phase,
             pairs: Vec::new(),
             plane_contacts: Vec::new(),
-            steps: 0,
+            plane_buffers: Vec::new(),
+            blocks: Blocks::default(),
+            block_size: block_size(n, V::DIM),
+            sorter: Sorter::default(),
+            steps,
         })
     }
 }
@@ -187,10 +257,23 @@ fn check_dt(dt: f64) -> Result<(), EngineError> {
 pub struct World<V: Vector> {
     config: WorldConfig<V>,
     planes: Vec<Plane<V>>,
-    particles: Particles<V>,
+    /// The particles in storage order (sorted along space every few steps).
+    store: Particles<V>,
+    /// Storage slot -> id.
+    ids: Vec<u32>,
+    /// Id -> storage slot.
+    slots: Vec<u32>,
+    /// Id-ordered copy, made when asked for and dropped by the next step.
+    by_id: OnceCell<Particles<V>>,
+    contacts_by_id: OnceCell<Vec<Pair>>,
     broad_phase: Box<dyn BroadPhase<V>>,
+    /// This step's overlapping pairs, as storage slots.
     pairs: Vec<Pair>,
     plane_contacts: Vec<PlaneContact>,
+    plane_buffers: Vec<Vec<PlaneContact>>,
+    blocks: Blocks,
+    block_size: usize,
+    sorter: Sorter,
     steps: u64,
 }
 
@@ -199,9 +282,116 @@ impl<V: Vector> std::fmt::Debug for World<V> {
         f.debug_struct("World")
             .field("config", &self.config)
             .field("planes", &self.planes)
-            .field("particles", &self.particles.len())
+            .field("particles", &self.store.len())
             .field("steps", &self.steps)
             .finish()
+    }
+}
+
+/// Storage slots per solver block for `n` particles in `dim` dimensions: a few rows (2D) or
+/// layers (3D) of a spatially sorted box, so that a contact seldom reaches past the next block.
+/// A function of `n` alone, so that the contact order is too (and a resumed run matches).
+fn block_size(n: usize, dim: usize) -> usize {
+    let slab = (n as f64).powf((dim as f64 - 1.0) / dim as f64);
+    let factor = if dim == 2 { 8.0 } else { 6.0 };
+    ((factor * slab) as usize)
+        .next_multiple_of(256)
+        .max(MIN_BLOCK)
+}
+
+/// The spatial sort's scratch space, kept between sorts.
+#[derive(Debug, Default)]
+struct Sorter {
+    keys: Vec<u32>,
+    starts: Vec<u32>,
+    order: Vec<u32>,
+    done: Vec<u64>,
+}
+
+impl Sorter {
+    /// Sorts the arrays by grid cell, ties by id.
+    fn sort<V: Vector>(
+        &mut self,
+        store: &mut Particles<V>,
+        ids: &mut [u32],
+        slots: &mut [u32],
+        domain: Option<Aabb<V>>,
+    ) {
+        let n = store.len();
+        if n == 0 {
+            return;
+        }
+        let bounds = domain.unwrap_or_else(|| bounding_box(&store.position));
+        let layout = GridLayout::fit(&bounds, store.max_radius(), None, (n as f64).max(64.0));
+        self.keys.resize(n, 0);
+        let key = |(k, &x): (&mut u32, &V)| *k = layout.linear(layout.cell_coords(x)) as u32;
+        if n >= PARALLEL_MIN {
+            self.keys
+                .par_iter_mut()
+                .zip(store.position.par_iter())
+                .for_each(key);
+        } else {
+            self.keys
+                .iter_mut()
+                .zip(store.position.iter())
+                .for_each(key);
+        }
+        let cells = layout.total();
+        self.starts.clear();
+        self.starts.resize(cells + 1, 0);
+        for &k in &self.keys {
+            self.starts[k as usize + 1] += 1;
+        }
+        for c in 0..cells {
+            self.starts[c + 1] += self.starts[c];
+        }
+        // Ties (one cell) go by id, so the new order is a function of the state alone, not of
+        // the order before: a world rebuilt from the same state sorts the same way.
+        self.order.resize(n, 0);
+        for &i in slots.iter() {
+            let slot = &mut self.starts[self.keys[i as usize] as usize];
+            self.order[*slot as usize] = i;
+            *slot += 1;
+        }
+        // new slot s takes what was at order[s]: apply by following cycles, all arrays at once.
+        self.done.clear();
+        self.done.resize(n.div_ceil(64), 0);
+        let Particles {
+            position,
+            velocity,
+            radius,
+            mass,
+        } = store;
+        for start in 0..n {
+            if self.done[start / 64] & (1 << (start % 64)) != 0 {
+                continue;
+            }
+            let saved = (
+                position[start],
+                velocity[start],
+                radius[start],
+                mass[start],
+                ids[start],
+            );
+            let mut s = start;
+            loop {
+                self.done[s / 64] |= 1 << (s % 64);
+                let from = self.order[s] as usize;
+                if from == start {
+                    (position[s], velocity[s], radius[s], mass[s], ids[s]) = saved;
+                    break;
+                }
+                position[s] = position[from];
+                velocity[s] = velocity[from];
+                radius[s] = radius[from];
+                mass[s] = mass[from];
+                ids[s] = ids[from];
+                s = from;
+            }
+        }
+        for (slot, &id) in ids.iter().enumerate() {
+            slots[id as usize] = slot as u32;
+        }
     }
 }
 
@@ -216,57 +406,82 @@ impl<V: Vector> World<V> {
 
     /// Advances the world by one time step.
     pub fn step(&mut self) -> StepStats {
+        self.by_id.take();
+        self.contacts_by_id.take();
+        if self.steps % REORDER_INTERVAL == 0 {
+            self.sorter.sort(
+                &mut self.store,
+                &mut self.ids,
+                &mut self.slots,
+                self.config.domain,
+            );
+        }
+        let n = self.store.len();
+        let parallel = n >= PARALLEL_MIN;
         let dt = self.config.dt;
         let dv = self.config.gravity * dt;
+        let integrate = |(xs, vs): (&mut [V], &mut [V])| {
+            for (x, v) in xs.iter_mut().zip(vs.iter_mut()) {
+                *v += dv;
+                *x += *v * dt;
+            }
+        };
         let Particles {
             position, velocity, ..
-        } = &mut self.particles;
-        position
-            .par_chunks_mut(INTEGRATE_CHUNK)
-            .zip(velocity.par_chunks_mut(INTEGRATE_CHUNK))
-            .for_each(|(xs, vs)| {
-                for (x, v) in xs.iter_mut().zip(vs.iter_mut()) {
-                    *v += dv;
-                    *x += *v * dt;
-                }
-            });
-
-        self.broad_phase.find_pairs(
-            &self.particles.position,
-            &self.particles.radius,
-            &mut self.pairs,
-        );
-
-        self.plane_contacts.clear();
-        if !self.planes.is_empty() {
-            for (i, (&x, &r)) in self
-                .particles
-                .position
-                .iter()
-                .zip(&self.particles.radius)
-                .enumerate()
-            {
-                for (p, plane) in self.planes.iter().enumerate() {
-                    if plane.signed_distance(x) < r {
-                        self.plane_contacts.push((i as u32, p as u32));
-                    }
-                }
-            }
+        } = &mut self.store;
+        if parallel {
+            position
+                .par_chunks_mut(INTEGRATE_CHUNK)
+                .zip(velocity.par_chunks_mut(INTEGRATE_CHUNK))
+                .for_each(integrate);
+        } else {
+            integrate((position, velocity));
         }
 
+        self.broad_phase
+            .find_pairs(&self.store.position, &self.store.radius, &mut self.pairs);
+        self.find_plane_contacts(parallel);
+        self.blocks.plan(
+            n,
+            self.block_size,
+            &self.pairs,
+            &self.plane_contacts,
+            parallel,
+        );
+
+        let resting_speed = self
+            .config
+            .resting_speed
+            .unwrap_or(2.0 * self.config.gravity.length_squared().sqrt() * dt);
+        let Particles {
+            position,
+            velocity,
+            radius,
+            mass,
+        } = &mut self.store;
         let solve = solver::solve_velocities(
-            &mut self.particles,
+            &Bodies {
+                position,
+                radius,
+                mass,
+            },
+            velocity,
             &self.pairs,
             &self.plane_contacts,
             &self.planes,
+            &self.blocks,
             self.config.restitution,
+            resting_speed,
             self.config.velocity_iterations,
         );
         solver::separate(
-            &mut self.particles,
+            position,
+            radius,
+            mass,
             &self.pairs,
             &self.plane_contacts,
             &self.planes,
+            &self.blocks,
             self.config.position_iterations,
         );
         self.steps += 1;
@@ -279,14 +494,93 @@ impl<V: Vector> World<V> {
         }
     }
 
-    /// The particles.
-    pub fn particles(&self) -> &Particles<V> {
-        &self.particles
+    /// Every (slot, plane) with the particle within its radius of the plane, sorted.
+    fn find_plane_contacts(&mut self, parallel: bool) {
+        self.plane_contacts.clear();
+        if self.planes.is_empty() {
+            return;
+        }
+        let n = self.store.len();
+        let chunks = n.div_ceil(INTEGRATE_CHUNK);
+        if self.plane_buffers.len() < chunks {
+            self.plane_buffers.resize_with(chunks, Vec::new);
+        }
+        let (position, radius, planes) = (&self.store.position, &self.store.radius, &self.planes);
+        let work = |(c, out): (usize, &mut Vec<PlaneContact>)| {
+            out.clear();
+            for i in c * INTEGRATE_CHUNK..((c + 1) * INTEGRATE_CHUNK).min(n) {
+                for (p, plane) in planes.iter().enumerate() {
+                    if plane.signed_distance(position[i]) < radius[i] {
+                        out.push((i as u32, p as u32));
+                    }
+                }
+            }
+        };
+        if parallel {
+            self.plane_buffers[..chunks]
+                .par_iter_mut()
+                .enumerate()
+                .for_each(work);
+        } else {
+            self.plane_buffers[..chunks]
+                .iter_mut()
+                .enumerate()
+                .for_each(work);
+        }
+        for b in &self.plane_buffers[..chunks] {
+            self.plane_contacts.extend_from_slice(b);
+        }
     }
 
-    /// The particles, for tools that edit velocities between steps.
-    pub fn particles_mut(&mut self) -> &mut Particles<V> {
-        &mut self.particles
+    /// The particles, in id order.
+    ///
+    /// The engine stores them sorted along space; this is an id-ordered copy, made on the first
+    /// call after a step and kept until the next step. For single values without the copy, use
+    /// [`World::particle`].
+    pub fn particles(&self) -> &Particles<V> {
+        self.by_id.get_or_init(|| {
+            let mut p = Particles::new();
+            for id in 0..self.store.len() {
+                let s = self.slots[id] as usize;
+                p.position.push(self.store.position[s]);
+                p.velocity.push(self.store.velocity[s]);
+                p.radius.push(self.store.radius[s]);
+                p.mass.push(self.store.mass[s]);
+            }
+            p
+        })
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.store.len()
+    }
+
+    /// True when there are no particles.
+    pub fn is_empty(&self) -> bool {
+        self.store.is_empty()
+    }
+
+    /// One particle's state by id: `(position, velocity, radius, mass)`.
+    pub fn particle(&self, id: usize) -> (V, V, f64, f64) {
+        let s = self.slots[id] as usize;
+        (
+            self.store.position[s],
+            self.store.velocity[s],
+            self.store.radius[s],
+            self.store.mass[s],
+        )
+    }
+
+    /// Sets particle `id`'s velocity (for interactive tools). Must be finite.
+    pub fn set_velocity(&mut self, id: usize, velocity: V) -> Result<(), EngineError> {
+        if !velocity.is_finite_vector() {
+            return Err(EngineError::ParticleNotFinite(id));
+        }
+        self.by_id.take();
+        let s = self.slots[id] as usize;
+        self.store.velocity[s] = velocity;
+        Ok(())
     }
 
     /// All planes, including domain walls.
@@ -299,6 +593,11 @@ impl<V: Vector> World<V> {
         &self.config
     }
 
+    /// Ids by storage slot: what [`WorldBuilder::resume`] needs to continue this run exactly.
+    pub fn storage_order(&self) -> &[u32] {
+        &self.ids
+    }
+
     /// Steps taken so far.
     pub fn steps_taken(&self) -> u64 {
         self.steps
@@ -309,9 +608,20 @@ impl<V: Vector> World<V> {
         self.steps as f64 * self.config.dt
     }
 
-    /// Overlapping pairs found in the last step, sorted.
+    /// Overlapping pairs found in the last step, as ids `(a, b)` with `a < b`, sorted.
     pub fn contacts(&self) -> &[Pair] {
-        &self.pairs
+        self.contacts_by_id.get_or_init(|| {
+            let mut c: Vec<Pair> = self
+                .pairs
+                .iter()
+                .map(|&(i, j)| {
+                    let (a, b) = (self.ids[i as usize], self.ids[j as usize]);
+                    (a.min(b), a.max(b))
+                })
+                .collect();
+            c.sort_unstable();
+            c
+        })
     }
 
     /// Name of the broad phase in use.
@@ -324,19 +634,19 @@ impl<V: Vector> World<V> {
         self.broad_phase.cells()
     }
 
-    /// Total kinetic energy.
+    /// Total kinetic energy, summed in id order.
     pub fn kinetic_energy(&self) -> f64 {
-        diagnostics::kinetic_energy(&self.particles)
+        diagnostics::kinetic_energy(self.particles())
     }
 
-    /// Gravitational potential energy (zero at the origin).
+    /// Gravitational potential energy (zero at the origin), summed in id order.
     pub fn potential_energy(&self) -> f64 {
-        diagnostics::potential_energy(&self.particles, self.config.gravity)
+        diagnostics::potential_energy(self.particles(), self.config.gravity)
     }
 
-    /// Total momentum.
+    /// Total momentum, summed in id order.
     pub fn momentum(&self) -> V {
-        diagnostics::momentum(&self.particles)
+        diagnostics::momentum(self.particles())
     }
 
     /// Changes the particle-particle restitution.
@@ -372,7 +682,9 @@ impl<V: Vector> World<V> {
                 h = h.wrapping_mul(0x0000_0100_0000_01b3);
             }
         };
-        for (x, v) in self.particles.position.iter().zip(&self.particles.velocity) {
+        for id in 0..self.store.len() {
+            let s = self.slots[id] as usize;
+            let (x, v) = (self.store.position[s], self.store.velocity[s]);
             for a in 0..V::DIM {
                 eat(x.get(a));
                 eat(v.get(a));

@@ -73,6 +73,9 @@ impl<V: Vector> Scene<V> {
         if let Some(d) = self.config.domain {
             b = b.domain(d);
         }
+        if let Some(v) = self.config.resting_speed {
+            b = b.resting_speed(v);
+        }
         if let Some(c) = &self.config.grid_cells {
             b = b.grid_cells(c);
         }
@@ -287,6 +290,11 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         }
     }
 
+    let resting_speed = match raw.solver.as_ref().and_then(|s| s.resting_speed) {
+        Some(v) => Some(ctx.non_negative("solver.resting_speed", v)?),
+        None => None,
+    };
+
     let mut planes = Vec::with_capacity(raw.planes.len());
     for (i, p) in raw.planes.iter().enumerate() {
         let f = |k: &str| format!("planes[{i}].{k}");
@@ -318,6 +326,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
             domain,
             broad_phase,
             grid_cells,
+            resting_speed,
         },
         walls,
         planes,

@@ -53,6 +53,7 @@ pub(crate) struct RawBroadPhase {
 pub(crate) struct RawSolver {
     pub velocity_iterations: Option<i64>,
     pub position_iterations: Option<i64>,
+    pub resting_speed: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
