@@ -43,9 +43,13 @@ pub enum BroadPhaseKind {
 /// of threads.
 pub(crate) const CHUNK: usize = 1024;
 
-/// Below this many particles every phase runs on the calling thread: handing out work to the
-/// pool costs more than it saves. Serial and parallel runs give the same bits either way.
+/// Below this many particles every phase but the pair search runs on the calling thread:
+/// handing out work to the pool costs more than it saves (the solver makes up to a hundred
+/// short parallel calls per step). Serial and parallel runs give the same bits either way.
 pub const PARALLEL_MIN: usize = 16_384;
+
+/// The pair search, one big parallel call per step, pays off from this many particles.
+pub const PARALLEL_SEARCH_MIN: usize = 2048;
 
 /// Runs `search(i, out)` for every particle, in parallel over fixed chunks, each chunk
 /// writing into its own reused buffer, then concatenates the buffers in chunk order into
@@ -71,7 +75,7 @@ pub(crate) fn collect_pairs<F>(
         }
         out.sort_unstable();
     };
-    if n >= PARALLEL_MIN {
+    if n >= PARALLEL_SEARCH_MIN {
         buffers[..chunks].par_iter_mut().enumerate().for_each(work);
     } else {
         buffers[..chunks].iter_mut().enumerate().for_each(work);

@@ -116,8 +116,9 @@ impl GridLayout {
     /// subtraction, a division by a positive constant, floor, clamp) is.
     #[inline]
     pub fn axis_cell(&self, axis: usize, coordinate: f64) -> usize {
-        let t = ((coordinate - self.origin[axis]) / self.cell_size[axis]).floor();
-        // `as usize` saturates (negative and NaN become 0); clamp the top.
+        let t = (coordinate - self.origin[axis]) / self.cell_size[axis];
+        // Round down: for t >= 0 truncation is floor, and anything below 0 clamps to cell 0
+        // anyway (`as usize` also saturates, sending NaN to 0). No libm call in the hot loop.
         (t.max(0.0) as usize).min(self.cells[axis] - 1)
     }
 
@@ -195,9 +196,12 @@ impl<V: Vector> Grid<V> {
             Some(d) => d,
             None => bounding_box(positions),
         };
-        // Never more than a few cells per particle: an empty cell costs a visit.
-        let limit = ((4 * positions.len()).max(64) as f64).min(MAX_CELLS as f64);
-        let layout = GridLayout::fit(&bounds, max_radius, self.requested_cells, limit);
+        let layout = GridLayout::fit(
+            &bounds,
+            max_radius,
+            self.requested_cells,
+            cell_limit(positions.len()),
+        );
         self.layout = layout;
     }
 
@@ -235,6 +239,12 @@ impl<V: Vector> Grid<V> {
         self.cell_start.copy_within(0..total, 1);
         self.cell_start[0] = 0;
     }
+}
+
+/// Most cells a derived layout may have for `n` particles: never more than a few per particle,
+/// since an empty cell still costs a visit.
+pub(crate) fn cell_limit(n: usize) -> f64 {
+    ((4 * n).max(64) as f64).min(MAX_CELLS as f64)
 }
 
 /// The smallest box holding every position (a zero box when there are none).
@@ -291,7 +301,7 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
                     let end = cell_start[row + hi[0] + 1] as usize;
                     for &j in &ids[start..end] {
                         let j = j as usize;
-                        if j > i && is_overlapping(pi, positions[j], ri, radii[j]) {
+                        if (j > i) & is_overlapping(pi, positions[j], ri, radii[j]) {
                             out.push((i as u32, j as u32));
                         }
                     }

@@ -322,7 +322,14 @@ impl Sorter {
             return;
         }
         let bounds = domain.unwrap_or_else(|| bounding_box(&store.position));
-        let layout = GridLayout::fit(&bounds, store.max_radius(), None, (n as f64).max(64.0));
+        // Derived from the particles alone (never from the broad phase or its cell count), so
+        // that brute force and every grid size see the same storage order and the same bits.
+        let layout = GridLayout::fit(
+            &bounds,
+            store.max_radius(),
+            None,
+            crate::grid::cell_limit(n),
+        );
         self.keys.resize(n, 0);
         let key = |(k, &x): (&mut u32, &V)| *k = layout.linear(layout.cell_coords(x)) as u32;
         if n >= PARALLEL_MIN {
