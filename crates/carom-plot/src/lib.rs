@@ -1,0 +1,1 @@
+//! Benchmark plots for carom. (Placeholder: being written.)
