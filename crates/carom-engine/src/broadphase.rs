@@ -1,6 +1,6 @@
-//! Broad phase: which pairs of particles overlap. Two implementations sit behind one trait,
-//! [`brute`](crate::brute) (the lecture's O(n^2) baseline) and [`grid`](crate::grid) (the
-//! lecture's hash grid).
+//! Broad phase: which pairs of particles overlap. Three implementations sit behind one trait:
+//! [`brute`](crate::brute) (the lecture's O(n^2) baseline), [`grid`](crate::grid) (the
+//! lecture's hash grid) and [`hash`](crate::hash) (the same without a bounding box).
 //!
 //! Contract shared by both: the output is *every* pair `(i, j)` with `i < j` whose centres are
 //! closer than `r_i + r_j`, sorted ascending, and nothing else. Because the set is exact and the
@@ -32,10 +32,12 @@ pub trait BroadPhase<V: Vector>: Send + Sync {
 pub enum BroadPhaseKind {
     /// All pairs: O(n^2).
     Brute,
-    /// The lecture's uniform grid over the domain; `cells` per axis, or derived from the
-    /// largest radius when `None`.
+    /// The lecture's uniform grid over the domain (cells per axis from
+    /// [`crate::WorldConfig::grid_cells`], or derived from the largest radius).
     #[default]
     Grid,
+    /// An unbounded spatial hash: for scenes without walls, where particles roam anywhere.
+    Hash,
 }
 
 /// Particles per work unit in parallel pair searches. Fixed (not derived from the thread count)

@@ -20,6 +20,7 @@
 use crate::broadphase::{collect_pairs, BroadPhase, Pair, PARALLEL_MIN};
 use crate::domain::Aabb;
 use crate::error::EngineError;
+use crate::hash::SpatialHash;
 use crate::response::is_overlapping;
 use crate::vector::Vector;
 use rayon::prelude::*;
@@ -37,7 +38,13 @@ pub struct Grid<V> {
     cell_start: Vec<u32>,
     ids: Vec<u32>,
     buffers: Vec<Vec<Pair>>,
+    overflow: SpatialHash,
+    escaped: bool,
 }
+
+/// How many particles may sit outside the domain (or 1/64 of them, if more) before a step's
+/// search goes to the unbounded hash instead of the clamped border cells.
+const ESCAPEES_BEFORE_HASHING: usize = 64;
 
 /// Where the grid lies this step: origin, cell size and cells per axis (unused axes have one
 /// cell of size 1).
@@ -177,6 +184,8 @@ impl<V: Vector> Grid<V> {
             cell_start: Vec::new(),
             ids: Vec::new(),
             buffers: Vec::new(),
+            overflow: SpatialHash::new(),
+            escaped: false,
         })
     }
 
@@ -281,6 +290,24 @@ pub(crate) fn bounding_box<V: Vector>(positions: &[V]) -> Aabb<V> {
 
 impl<V: Vector> BroadPhase<V> for Grid<V> {
     fn find_pairs(&mut self, positions: &[V], radii: &[f64], pairs: &mut Vec<Pair>) {
+        // Particles that left the domain all land in its border cells; if many did, those
+        // cells would turn the search quadratic. The unbounded hash finds exactly the same
+        // pairs, so use it for such steps instead.
+        if let Some(domain) = self.domain {
+            let outside = if positions.len() >= PARALLEL_MIN {
+                positions
+                    .par_iter()
+                    .filter(|&&x| !domain.contains(x))
+                    .count()
+            } else {
+                positions.iter().filter(|&&x| !domain.contains(x)).count()
+            };
+            if outside > ESCAPEES_BEFORE_HASHING.max(positions.len() / 64) {
+                self.escaped = true;
+                return self.overflow.find_pairs(positions, radii, pairs);
+            }
+        }
+        self.escaped = false;
         let max_radius = radii.iter().copied().fold(0.0, f64::max);
         self.plan_layout(positions, max_radius);
         self.build_buckets(positions);
@@ -311,7 +338,11 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
     }
 
     fn name(&self) -> &'static str {
-        "grid"
+        if self.escaped {
+            "grid (hash while particles are outside the domain)"
+        } else {
+            "grid"
+        }
     }
 
     fn cells(&self) -> Option<[usize; 3]> {

@@ -11,6 +11,7 @@
 //! | particle-plane rule `(x - p) . n < r && n . v < 0`, `V' = V_T - k V_N` | [`plane`] |
 //! | the hash grid (normalise, scale, clamp, floor; buckets; neighbour cells) | [`grid`] |
 //! | brute force, O(n^2) | [`brute`] |
+//! | the grid without a box: an unbounded spatial hash (Teschner et al. 2003) | [`hash`] |
 //! | many simultaneous contacts, pushing trapped particles apart | [`solver`] |
 //! | the particle system stepped in time under gravity | [`world`] |
 //!
@@ -37,6 +38,7 @@ pub mod diagnostics;
 pub mod domain;
 pub mod error;
 pub mod grid;
+pub mod hash;
 pub mod particles;
 pub mod plane;
 pub mod response;

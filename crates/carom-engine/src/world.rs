@@ -18,6 +18,7 @@ use crate::diagnostics::{self, StepStats};
 use crate::domain::Aabb;
 use crate::error::EngineError;
 use crate::grid::{bounding_box, Grid, GridLayout};
+use crate::hash::SpatialHash;
 use crate::particles::Particles;
 use crate::plane::{check_restitution, Plane};
 use crate::solver::{self, Blocks, Bodies, PlaneContact};
@@ -200,6 +201,7 @@ impl<V: Vector> WorldBuilder<V> {
             BroadPhaseKind::Grid => {
                 Box::new(Grid::new(config.domain, config.grid_cells.as_deref())?)
             }
+            BroadPhaseKind::Hash => Box::new(SpatialHash::new()),
         };
         let n = self.particles.len();
         let (steps, ids) = match self.resume {

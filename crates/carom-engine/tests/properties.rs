@@ -126,11 +126,15 @@ fn grid_matches_brute<V: Vector>(
 ) -> Result<(), TestCaseError> {
     let mut brute = build::<V>(bodies, s, BroadPhaseKind::Brute, None);
     let mut grid = build::<V>(bodies, s, BroadPhaseKind::Grid, Some(&cells[..V::DIM]));
+    let mut hash = build::<V>(bodies, s, BroadPhaseKind::Hash, None);
     for step in 0..STEPS {
         brute.step();
         grid.step();
+        hash.step();
         prop_assert_eq!(grid.contacts(), brute.contacts(), "step {}", step);
         prop_assert_eq!(grid.state_hash(), brute.state_hash(), "step {}", step);
+        prop_assert_eq!(hash.contacts(), brute.contacts(), "hash, step {}", step);
+        prop_assert_eq!(hash.state_hash(), brute.state_hash(), "hash, step {}", step);
     }
     Ok(())
 }

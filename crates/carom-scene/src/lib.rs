@@ -232,11 +232,20 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         }
     }
 
-    let mut broad_phase = BroadPhaseKind::Grid;
+    // Default: the lecture's grid when walls close the domain, otherwise the unbounded hash
+    // (particles may roam anywhere, and a grid would clamp them into its border cells).
+    let mut broad_phase = if walls.is_some() {
+        BroadPhaseKind::Grid
+    } else {
+        BroadPhaseKind::Hash
+    };
     let mut grid_cells = None;
     if let Some(b) = &raw.broadphase {
-        if b.kind == Some(RawBroadPhaseKind::Brute) {
-            broad_phase = BroadPhaseKind::Brute;
+        match b.kind {
+            Some(RawBroadPhaseKind::Brute) => broad_phase = BroadPhaseKind::Brute,
+            Some(RawBroadPhaseKind::Grid) => broad_phase = BroadPhaseKind::Grid,
+            Some(RawBroadPhaseKind::Hash) => broad_phase = BroadPhaseKind::Hash,
+            None => {}
         }
         if let Some(cells) = &b.cells {
             if cells.len() != V::DIM {

@@ -39,6 +39,7 @@ pub(crate) struct RawDomain {
 pub(crate) enum RawBroadPhaseKind {
     Grid,
     Brute,
+    Hash,
 }
 
 #[derive(Debug, Deserialize)]
