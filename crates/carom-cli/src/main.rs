@@ -1,5 +1,6 @@
 //! `carom`: run particle collision scenes from the command line.
 
+mod bench;
 mod run;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -25,6 +26,8 @@ enum Command {
     },
     /// List the built-in scenes (the files in scenes/).
     Presets,
+    /// Measure speed: the lecture's brute force vs grid table and a scale sweep.
+    Bench(bench::BenchArgs),
 }
 
 /// Options of `carom run`.
@@ -60,6 +63,8 @@ pub enum BroadPhaseArg {
     Grid,
     /// All pairs, O(n^2).
     Brute,
+    /// An unbounded spatial hash (for scenes without walls).
+    Hash,
 }
 
 fn main() -> ExitCode {
@@ -67,6 +72,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(args) => run::run(&args),
         Command::Check { scene } => run::check(&scene),
+        Command::Bench(args) => bench::bench(&args),
         Command::Presets => {
             for (name, text) in carom_scene::PRESETS {
                 let title = text

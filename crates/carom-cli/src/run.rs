@@ -14,13 +14,13 @@ pub struct Failure {
 }
 
 impl Failure {
-    fn input(message: impl Into<String>) -> Self {
+    pub fn input(message: impl Into<String>) -> Self {
         Self {
             status: 2,
             message: message.into(),
         }
     }
-    fn runtime(message: impl Into<String>) -> Self {
+    pub fn runtime(message: impl Into<String>) -> Self {
         Self {
             status: 1,
             message: message.into(),
@@ -51,6 +51,28 @@ fn load(args: &RunArgs) -> Result<(AnyScene, String), Failure> {
     }
 }
 
+/// Refuses an output path whose folder is missing or which is a folder itself, before any
+/// work is done.
+pub fn check_output_path(flag: &str, out: &Path) -> Result<(), Failure> {
+    let dir = match out.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(Failure::input(format!(
+            "{flag}: folder {} does not exist",
+            dir.display()
+        )));
+    }
+    if out.is_dir() {
+        return Err(Failure::input(format!(
+            "{flag}: {} is a folder",
+            out.display()
+        )));
+    }
+    Ok(())
+}
+
 pub fn check(path: &Path) -> Result<(), Failure> {
     let scene = carom_scene::load(path).map_err(|e| Failure::input(e.to_string()))?;
     let (n, world_check) = match &scene {
@@ -77,22 +99,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
             .map_err(|e| Failure::runtime(format!("cannot start {threads} threads: {e}")))?;
     }
     if let Some(out) = &args.out {
-        let dir = match out.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        if !dir.is_dir() {
-            return Err(Failure::input(format!(
-                "--out: folder {} does not exist",
-                dir.display()
-            )));
-        }
-        if out.is_dir() {
-            return Err(Failure::input(format!(
-                "--out: {} is a folder",
-                out.display()
-            )));
-        }
+        check_output_path("--out", out)?;
     }
     let (scene, origin) = load(args)?;
     match scene {
@@ -108,9 +115,22 @@ fn run_scene<V: Vector>(mut scene: Scene<V>, origin: &str, args: &RunArgs) -> Re
     match args.broadphase {
         Some(BroadPhaseArg::Brute) => scene.config.broad_phase = BroadPhaseKind::Brute,
         Some(BroadPhaseArg::Grid) => scene.config.broad_phase = BroadPhaseKind::Grid,
+        Some(BroadPhaseArg::Hash) => scene.config.broad_phase = BroadPhaseKind::Hash,
         None => {}
     }
     if let Some(cells) = &args.cells {
+        if cells.len() != V::DIM || cells.contains(&0) {
+            return Err(Failure::input(format!(
+                "--cells: needs {} whole numbers >= 1 (the scene is {}D), got {cells:?}",
+                V::DIM,
+                V::DIM
+            )));
+        }
+        if scene.config.broad_phase != BroadPhaseKind::Grid {
+            return Err(Failure::input(
+                "--cells: only the grid has cells, and this run does not use it; add --broadphase grid",
+            ));
+        }
         scene.config.grid_cells = Some(cells.clone());
     }
     let name = scene.name.clone();

@@ -131,6 +131,7 @@ fn grid_and_brute_force_write_identical_files() {
     for (name, extra) in [
         ("grid", vec!["--broadphase", "grid"]),
         ("grid37", vec!["--cells", "37,29"]),
+        ("hash", vec!["--broadphase", "hash"]),
         ("brute", vec!["--broadphase", "brute"]),
     ] {
         let out = dir.path().join(format!("{name}.csv"));
@@ -146,8 +147,9 @@ fn grid_and_brute_force_write_identical_files() {
         run_ok(&args);
         outputs.push(std::fs::read(&out).unwrap());
     }
-    assert_eq!(outputs[0], outputs[2], "grid 100x100 vs brute force");
-    assert_eq!(outputs[1], outputs[2], "grid 37x29 vs brute force");
+    assert_eq!(outputs[0], outputs[3], "grid 100x100 vs brute force");
+    assert_eq!(outputs[1], outputs[3], "grid 37x29 vs brute force");
+    assert_eq!(outputs[2], outputs[3], "hash vs brute force");
 }
 
 #[test]
@@ -328,6 +330,11 @@ fn bad_scenes_are_rejected_with_file_and_field() {
         ),
         (
             "walls = true",
+            "walls = true\n[broadphase]\nkind = \"brute\"\ncells = [5, 5]",
+            "broadphase.cells",
+        ),
+        (
+            "walls = true",
             "walls = true\n[[planes]]\npoint = [0.0, 0.0]\nnormal = [0.0, 0.0]",
             "planes[0].normal",
         ),
@@ -369,6 +376,8 @@ fn bad_flags_are_rejected() {
         vec!["run", s, "--broadphase", "octree"],
         vec!["run", s, "--steps", "-1"],
         vec!["run", s, "--cells", "0,5"],
+        vec!["run", s, "--cells", "5,5"], // the cradle has no walls, so no grid
+        vec!["run", s, "--broadphase", "grid", "--cells", "5,5,5"],
         vec!["run", s, "--out", "/nonexistent/dir/out.csv"],
         vec!["run", "--preset", "no_such_scene"],
         vec!["run", s, "--bogus"],
@@ -381,4 +390,68 @@ fn bad_flags_are_rejected() {
             String::from_utf8_lossy(&out.stderr)
         );
     }
+}
+
+#[test]
+fn bench_quick_measures_every_case() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("bench.json");
+    let out = run_ok(&[
+        "bench",
+        "--quick",
+        "--max",
+        "1000",
+        "--out",
+        json.to_str().unwrap(),
+    ]);
+    let table = String::from_utf8(out.stdout).unwrap();
+    assert!(table.contains("grid 100x100 is"), "{table}");
+    let text = std::fs::read_to_string(&json).unwrap();
+    for key in [
+        "\"machine\"",
+        "\"ms_per_step\"",
+        "\"ns_per_particle_step\"",
+        "\"bytes_per_particle\"",
+        "brute force",
+        "2D, 1000 particles",
+        "3D, 1000 particles",
+    ] {
+        assert!(text.contains(key), "{key} missing from {text}");
+    }
+    assert!(!text.contains("NaN") && !text.contains("null"), "{text}");
+}
+
+#[test]
+fn bench_rejects_bad_flags_before_working() {
+    for args in [
+        vec!["bench", "--threads", "0"],
+        vec!["bench", "--out", "/nonexistent/dir/b.json"],
+        vec!["bench", "--only", "everything"],
+    ] {
+        let out = carom().args(&args).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+    }
+}
+
+#[test]
+fn particles_far_outside_a_grid_domain_match_brute_force() {
+    // no walls: half the particles leave the domain quickly, so the grid switches to the hash
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("escape.toml");
+    std::fs::write(
+        &scene,
+        "dimensions = 2\ndt = 0.01\nsteps = 300\nrestitution = 0.9\n\
+         [domain]\nmin = [-10.0, -10.0]\nmax = [10.0, 10.0]\n\
+         [broadphase]\nkind = \"grid\"\n\
+         [[fill]]\ncount = 400\nradius = 0.3\nspeed = 30.0\nseed = 2\n",
+    )
+    .unwrap();
+    let a = final_state(&scene, &[]);
+    let b = final_state(&scene, &["--broadphase", "brute"]);
+    assert_eq!(a, b);
+    let outside = a
+        .iter()
+        .filter(|r| r[1].abs() > 10.0 || r[2].abs() > 10.0)
+        .count();
+    assert!(outside > 100, "only {outside} escaped");
 }

@@ -54,6 +54,8 @@ pub struct GridLayout {
     pub origin: [f64; 3],
     /// Cell edge length per axis.
     pub cell_size: [f64; 3],
+    /// `1 / cell_size`: the hash multiplies (a division would cost as much as the rest).
+    pub inverse_cell_size: [f64; 3],
     /// Cells per axis.
     pub cells: [usize; 3],
 }
@@ -100,11 +102,13 @@ impl GridLayout {
         let mut layout = GridLayout {
             origin: [0.0; 3],
             cell_size: [1.0; 3],
+            inverse_cell_size: [1.0; 3],
             cells,
         };
         for a in 0..V::DIM {
             layout.origin[a] = bounds.min.get(a);
             layout.cell_size[a] = extent[a] / cells[a] as f64;
+            layout.inverse_cell_size[a] = 1.0 / layout.cell_size[a];
         }
         layout
     }
@@ -120,10 +124,10 @@ impl GridLayout {
     }
 
     /// One axis of [`GridLayout::cell_coords`]. Monotone in `coordinate`: every step (a
-    /// subtraction, a division by a positive constant, floor, clamp) is.
+    /// subtraction, a multiplication by a positive constant, floor, clamp) is.
     #[inline]
     pub fn axis_cell(&self, axis: usize, coordinate: f64) -> usize {
-        let t = (coordinate - self.origin[axis]) / self.cell_size[axis];
+        let t = (coordinate - self.origin[axis]) * self.inverse_cell_size[axis];
         // Round down: for t >= 0 truncation is floor, and anything below 0 clamps to cell 0
         // anyway (`as usize` also saturates, sending NaN to 0). No libm call in the hot loop.
         (t.max(0.0) as usize).min(self.cells[axis] - 1)
@@ -178,6 +182,7 @@ impl<V: Vector> Grid<V> {
             layout: GridLayout {
                 origin: [0.0; 3],
                 cell_size: [1.0; 3],
+                inverse_cell_size: [1.0; 3],
                 cells: [1; 3],
             },
             cell_of: Vec::new(),

@@ -218,15 +218,24 @@ impl<V: Vector> WorldBuilder<V> {
         if ids.len() != n {
             return Err(EngineError::StorageOrder);
         }
-        let mut store = Particles::new();
-        for &id in &ids {
-            let id = id as usize;
-            let p = &self.particles;
-            store.position.push(p.position[id]);
-            store.velocity.push(p.velocity[id]);
-            store.radius.push(p.radius[id]);
-            store.mass.push(p.mass[id]);
-        }
+        let store = if ids
+            .iter()
+            .enumerate()
+            .all(|(slot, &id)| slot == id as usize)
+        {
+            self.particles // already in storage order: move, do not copy
+        } else {
+            let mut store = Particles::new();
+            for &id in &ids {
+                let id = id as usize;
+                let p = &self.particles;
+                store.position.push(p.position[id]);
+                store.velocity.push(p.velocity[id]);
+                store.radius.push(p.radius[id]);
+                store.mass.push(p.mass[id]);
+            }
+            store
+        };
         Ok(World {
             config,
             planes,
@@ -326,12 +335,8 @@ impl Sorter {
         let bounds = domain.unwrap_or_else(|| bounding_box(&store.position));
         // Derived from the particles alone (never from the broad phase or its cell count), so
         // that brute force and every grid size see the same storage order and the same bits.
-        let layout = GridLayout::fit(
-            &bounds,
-            store.max_radius(),
-            None,
-            crate::grid::cell_limit(n),
-        );
+        // At most one cell per particle: finer would not sort any better, only cost memory.
+        let layout = GridLayout::fit(&bounds, store.max_radius(), None, (n as f64).max(64.0));
         self.keys.resize(n, 0);
         let key = |(k, &x): (&mut u32, &V)| *k = layout.linear(layout.cell_coords(x)) as u32;
         if n >= PARALLEL_MIN {

@@ -272,6 +272,12 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
                     format!("{total} cells in all is more than the limit {MAX_CELLS}"),
                 ));
             }
+            if broad_phase != BroadPhaseKind::Grid {
+                return Err(ctx.err(
+                    "broadphase.cells",
+                    "only the grid has cells: set kind = \"grid\" or drop cells",
+                ));
+            }
             grid_cells = Some(out);
         }
     }

@@ -1,0 +1,472 @@
+//! `carom bench`: the lecture's timing table and a scale sweep, measured on this machine.
+//!
+//! Every case runs in a child process of its own (`carom bench --case JSON`), so that its peak
+//! resident memory is its own and one case's caches and allocations cannot help another.
+//! Scenes are built from TOML text through the same scene loader as `carom run`.
+
+use crate::run::Failure;
+use carom_engine::Vector;
+use carom_scene::AnyScene;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+use std::process::Command;
+use std::time::Instant;
+
+/// Options of `carom bench`.
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    /// A short run (lecture cases with few steps, sweep up to 10^4 particles): a smoke test.
+    #[arg(long)]
+    pub quick: bool,
+    /// Largest particle count in the scale sweep.
+    #[arg(long, default_value_t = 4_000_000)]
+    pub max: u64,
+    /// Which part to run.
+    #[arg(long, value_enum, default_value_t = Part::All)]
+    pub only: Part,
+    /// Worker threads for every case (default: RAYON_NUM_THREADS, else one per core).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print the results as JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Also write the results as JSON to this file.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Also draw ns per particle-step against N for the sweep, as PNG, to this file.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Internal: run one case and print its result as JSON.
+    #[arg(long, hide = true)]
+    pub case: Option<String>,
+}
+
+/// Parts of the benchmark.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// The lecture's table and the sweep.
+    All,
+    /// The lecture's table only.
+    Lecture,
+    /// The scale sweep only.
+    Sweep,
+}
+
+/// One benchmark case, as handed to the child process.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+struct Case {
+    group: String,
+    name: String,
+    toml: String,
+    warmup: u64,
+    steps: u64,
+    threads: Option<usize>,
+}
+
+/// What a case measured.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+struct Measured {
+    group: String,
+    name: String,
+    dimensions: usize,
+    particles: usize,
+    broad_phase: String,
+    threads: usize,
+    steps: u64,
+    ms_per_step: f64,
+    ns_per_particle_step: f64,
+    contacts_per_step: f64,
+    bytes_per_particle: f64,
+    peak_rss_bytes: u64,
+    setup_seconds: f64,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    machine: Machine,
+    command: String,
+    results: &'a [Measured],
+}
+
+#[derive(Serialize)]
+struct Machine {
+    cpu: String,
+    cores: usize,
+    memory_gib: f64,
+    os: String,
+}
+
+fn machine() -> Machine {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown".into());
+    let memory_gib = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("MemTotal:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map(|kib| kib / (1024.0 * 1024.0))
+        .unwrap_or(0.0);
+    Machine {
+        cpu,
+        cores: std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1),
+        memory_gib,
+        os: std::env::consts::OS.to_string(),
+    }
+}
+
+/// The lecture's gas: `count` particles in (-100, 100)^2, gravity, walls, k = 1.
+fn lecture_toml(broadphase: &str, fills: &[(u64, f64, u64)]) -> String {
+    let mut t = String::from(
+        "dimensions = 2\ndt = 0.005\ngravity = [0.0, -9.8]\nrestitution = 1.0\n\
+         [domain]\nmin = [-100.0, -100.0]\nmax = [100.0, 100.0]\nwalls = true\n",
+    );
+    t.push_str(&format!("[broadphase]\n{broadphase}\n"));
+    for &(count, radius, seed) in fills {
+        t.push_str(&format!(
+            "[[fill]]\ncount = {count}\nradius = {radius}\nspeed = 20.0\nseed = {seed}\n"
+        ));
+    }
+    t
+}
+
+/// The sweep's scene: `n` particles of radius 1 at a fixed area (2D: 0.3) or volume (3D: 0.2)
+/// fraction in a walled cube, gravity, k = 1.
+fn sweep_toml(dim: usize, n: u64) -> String {
+    use std::f64::consts::PI;
+    let (side, zeros, g) = if dim == 2 {
+        ((n as f64 * PI / 0.3).sqrt(), "0.0", "[0.0, -9.8]")
+    } else {
+        (
+            (n as f64 * 4.0 / 3.0 * PI / 0.2).cbrt(),
+            "0.0, 0.0",
+            "[0.0, -9.8, 0.0]",
+        )
+    };
+    let half = side / 2.0;
+    let lo: Vec<String> = (0..dim).map(|_| format!("{:.6}", -half)).collect();
+    let hi: Vec<String> = (0..dim).map(|_| format!("{half:.6}")).collect();
+    let _ = zeros;
+    format!(
+        "dimensions = {dim}\ndt = 0.005\ngravity = {g}\nrestitution = 1.0\n\
+         [domain]\nmin = [{}]\nmax = [{}]\nwalls = true\n\
+         [[fill]]\ncount = {n}\nradius = 1.0\nspeed = 10.0\nseed = 1\n",
+        lo.join(", "),
+        hi.join(", ")
+    )
+}
+
+fn cases(args: &BenchArgs) -> Vec<Case> {
+    let mut out = Vec::new();
+    let threads = args.threads;
+    if args.only != Part::Sweep {
+        let (brute_steps, grid_steps) = if args.quick { (5, 50) } else { (100, 1000) };
+        let radii: [(&str, Vec<(u64, f64, u64)>); 2] = [
+            ("r = 1", vec![(5000, 1.0, 5000)]),
+            ("r = 1 and 3", vec![(100, 3.0, 3), (4900, 1.0, 1)]),
+        ];
+        for (label, fills) in radii {
+            for (bp, name, steps) in [
+                ("kind = \"brute\"", "brute force", brute_steps),
+                (
+                    "kind = \"grid\"\ncells = [100, 100]",
+                    "grid 100x100",
+                    grid_steps,
+                ),
+                (
+                    "kind = \"grid\"\ncells = [50, 50]",
+                    "grid 50x50",
+                    grid_steps,
+                ),
+            ] {
+                out.push(Case {
+                    group: "lecture".into(),
+                    name: format!("5000 particles, {label}, {name}"),
+                    toml: lecture_toml(bp, &fills),
+                    warmup: 10,
+                    steps,
+                    threads,
+                });
+            }
+        }
+    }
+    if args.only != Part::Lecture {
+        let max = if args.quick {
+            args.max.min(10_000)
+        } else {
+            args.max
+        };
+        for dim in [2usize, 3] {
+            for n in [1_000u64, 10_000, 100_000, 1_000_000, 4_000_000] {
+                if n > max {
+                    continue;
+                }
+                let steps = if args.quick { 10 } else { 40 };
+                out.push(Case {
+                    group: format!("sweep {dim}D"),
+                    name: format!("{dim}D, {n} particles"),
+                    toml: sweep_toml(dim, n),
+                    warmup: 10,
+                    steps,
+                    threads,
+                });
+                if n == 1_000_000 && threads != Some(1) {
+                    out.push(Case {
+                        group: format!("threads {dim}D"),
+                        name: format!("{dim}D, {n} particles, 1 thread"),
+                        toml: sweep_toml(dim, n),
+                        warmup: 10,
+                        steps,
+                        threads: Some(1),
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// `carom bench`.
+pub fn bench(args: &BenchArgs) -> Result<(), Failure> {
+    if let Some(json) = &args.case {
+        return run_case(json);
+    }
+    if args.threads == Some(0) {
+        return Err(Failure::input("--threads: must be at least 1"));
+    }
+    for (flag, path) in [("--out", &args.out), ("--plot", &args.plot)] {
+        if let Some(p) = path {
+            crate::run::check_output_path(flag, p)?;
+        }
+    }
+    let cases = cases(args);
+    let exe = std::env::current_exe()
+        .map_err(|e| Failure::runtime(format!("cannot find the carom binary: {e}")))?;
+    let progress = ProgressBar::new(cases.len() as u64);
+    progress.set_style(
+        ProgressStyle::with_template("{spinner} case {pos}/{len} {wide_msg} {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let mut results = Vec::new();
+    for case in &cases {
+        progress.set_message(case.name.clone());
+        let json = serde_json::to_string(case).map_err(|e| Failure::runtime(e.to_string()))?;
+        let mut cmd = Command::new(&exe);
+        cmd.args(["bench", "--case", &json]);
+        if let Some(t) = case.threads {
+            cmd.env("RAYON_NUM_THREADS", t.to_string());
+        }
+        let output = cmd
+            .output()
+            .map_err(|e| Failure::runtime(format!("cannot start a benchmark case: {e}")))?;
+        if !output.status.success() {
+            return Err(Failure::runtime(format!(
+                "benchmark case `{}` failed: {}",
+                case.name,
+                String::from_utf8_lossy(&output.stderr).trim()
+            )));
+        }
+        let measured: Measured = serde_json::from_slice(&output.stdout).map_err(|e| {
+            Failure::runtime(format!(
+                "benchmark case `{}` gave no result: {e}",
+                case.name
+            ))
+        })?;
+        results.push(measured);
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let report = Report {
+        machine: machine(),
+        command,
+        results: &results,
+    };
+    let json =
+        serde_json::to_string_pretty(&report).map_err(|e| Failure::runtime(e.to_string()))?;
+    if let Some(path) = &args.out {
+        carom_output::write_atomic(path, |w| std::io::Write::write_all(w, json.as_bytes()))
+            .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))?;
+    }
+    if let Some(path) = &args.plot {
+        plot(path, &results)?;
+    }
+    if args.json {
+        println!("{json}");
+    } else {
+        print_table(&report);
+    }
+    Ok(())
+}
+
+fn plot(path: &std::path::Path, results: &[Measured]) -> Result<(), Failure> {
+    let mut series = Vec::new();
+    for group in ["sweep 2D", "sweep 3D"] {
+        let points: Vec<(f64, f64)> = results
+            .iter()
+            .filter(|m| m.group == group)
+            .map(|m| (m.particles as f64, m.ns_per_particle_step))
+            .collect();
+        if !points.is_empty() {
+            series.push(carom_plot::Series {
+                label: group.replace("sweep ", ""),
+                points,
+            });
+        }
+    }
+    if series.is_empty() {
+        return Err(Failure::input("--plot: the sweep did not run (see --only)"));
+    }
+    let threads = results.first().map(|m| m.threads).unwrap_or(1);
+    carom_plot::save_scaling_plot(
+        path,
+        &series,
+        &format!("carom: cost per particle-step ({threads} threads)"),
+        "particles N",
+        "ns per particle-step",
+    )
+    .map_err(|e| Failure::runtime(format!("cannot draw {}: {e}", path.display())))
+}
+
+fn print_table(report: &Report) {
+    let m = &report.machine;
+    println!(
+        "machine: {} ({} cores, {:.0} GiB, {})",
+        m.cpu, m.cores, m.memory_gib, m.os
+    );
+    println!("command: {}", report.command);
+    println!();
+    println!(
+        "{:<44} {:>9} {:>8} {:>10} {:>12} {:>14} {:>10}",
+        "case", "particles", "threads", "ms/step", "ns/particle", "contacts/step", "bytes/part"
+    );
+    let mut group = "";
+    for r in report.results {
+        if r.group != group {
+            group = &r.group;
+            println!("-- {group}");
+        }
+        println!(
+            "{:<44} {:>9} {:>8} {:>10.4} {:>12.1} {:>14.1} {:>10.0}",
+            r.name,
+            r.particles,
+            r.threads,
+            r.ms_per_step,
+            r.ns_per_particle_step,
+            r.contacts_per_step,
+            r.bytes_per_particle
+        );
+    }
+    // The lecture's comparison: grid against brute force in this run.
+    for radii in ["r = 1,", "r = 1 and 3,"] {
+        let find = |bp: &str| {
+            report
+                .results
+                .iter()
+                .find(|r| r.group == "lecture" && r.name.contains(radii) && r.name.ends_with(bp))
+        };
+        if let (Some(b), Some(g)) = (find("brute force"), find("grid 100x100")) {
+            println!(
+                "lecture {}: grid 100x100 is {:.0}x faster than brute force here (lecture: 0.18 s vs 0.006 s, 30x)",
+                radii.trim_end_matches(','),
+                b.ms_per_step / g.ms_per_step
+            );
+        }
+    }
+    for dim in ["2D", "3D"] {
+        let one = report
+            .results
+            .iter()
+            .find(|r| r.group == format!("threads {dim}"));
+        let many = report
+            .results
+            .iter()
+            .find(|r| r.group == format!("sweep {dim}") && r.particles == 1_000_000);
+        if let (Some(a), Some(b)) = (one, many) {
+            println!(
+                "{dim} at 10^6: {} threads are {:.2}x faster than 1 thread",
+                b.threads,
+                a.ms_per_step / b.ms_per_step
+            );
+        }
+    }
+}
+
+/// Peak resident memory of this process so far, from /proc.
+fn peak_rss_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+        })
+        .map(|kib| kib * 1024)
+        .unwrap_or(0)
+}
+
+fn run_case(json: &str) -> Result<(), Failure> {
+    let case: Case =
+        serde_json::from_str(json).map_err(|e| Failure::input(format!("--case: {e}")))?;
+    let started = Instant::now();
+    let scene = carom_scene::parse(&case.toml, &format!("bench:{}", case.name))
+        .map_err(|e| Failure::input(e.to_string()))?;
+    let measured = match scene {
+        AnyScene::Two(s) => measure(&case, s, started),
+        AnyScene::Three(s) => measure(&case, s, started),
+    }?;
+    println!(
+        "{}",
+        serde_json::to_string(&measured).map_err(|e| Failure::runtime(e.to_string()))?
+    );
+    Ok(())
+}
+
+fn measure<V: Vector>(
+    case: &Case,
+    scene: carom_scene::Scene<V>,
+    started: Instant,
+) -> Result<Measured, Failure> {
+    let mut world = scene
+        .into_world()
+        .map_err(|e| Failure::input(e.to_string()))?;
+    for _ in 0..case.warmup {
+        world.step();
+    }
+    let setup_seconds = started.elapsed().as_secs_f64();
+    let n = world.len();
+    let mut contacts = 0u64;
+    let t = Instant::now();
+    for _ in 0..case.steps {
+        contacts += world.step().contacts as u64;
+    }
+    let seconds = t.elapsed().as_secs_f64();
+    let steps = case.steps.max(1) as f64;
+    let peak = peak_rss_bytes();
+    Ok(Measured {
+        group: case.group.clone(),
+        name: case.name.clone(),
+        dimensions: V::DIM,
+        particles: n,
+        broad_phase: world.broad_phase_name().to_string(),
+        threads: rayon::current_num_threads(),
+        steps: case.steps,
+        ms_per_step: seconds * 1e3 / steps,
+        ns_per_particle_step: seconds * 1e9 / steps / n.max(1) as f64,
+        contacts_per_step: contacts as f64 / steps,
+        bytes_per_particle: peak as f64 / n.max(1) as f64,
+        peak_rss_bytes: peak,
+        setup_seconds,
+    })
+}
