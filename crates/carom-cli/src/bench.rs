@@ -125,8 +125,11 @@ fn machine() -> Machine {
     }
 }
 
+/// A `[[fill]]`: count, radius, seed.
+type Fill = (u64, f64, u64);
+
 /// The lecture's gas: `count` particles in (-100, 100)^2, gravity, walls, k = 1.
-fn lecture_toml(broadphase: &str, fills: &[(u64, f64, u64)]) -> String {
+fn lecture_toml(broadphase: &str, fills: &[Fill]) -> String {
     let mut t = String::from(
         "dimensions = 2\ndt = 0.005\ngravity = [0.0, -9.8]\nrestitution = 1.0\n\
          [domain]\nmin = [-100.0, -100.0]\nmax = [100.0, 100.0]\nwalls = true\n",
@@ -171,7 +174,7 @@ fn cases(args: &BenchArgs) -> Vec<Case> {
     let threads = args.threads;
     if args.only != Part::Sweep {
         let (brute_steps, grid_steps) = if args.quick { (5, 50) } else { (100, 1000) };
-        let radii: [(&str, Vec<(u64, f64, u64)>); 2] = [
+        let radii: [(&str, Vec<Fill>); 2] = [
             ("r = 1", vec![(5000, 1.0, 5000)]),
             ("r = 1 and 3", vec![(100, 3.0, 3), (4900, 1.0, 1)]),
         ];
