@@ -330,7 +330,7 @@ fn separate_pair<V: Vector>(xi: &mut V, xj: &mut V, ri: f64, rj: f64, mi: f64, m
 }
 
 /// Position phase: `iterations` sweeps over the pairs and plane contacts (in the same order
-/// as the velocity phase), then one pass of every particle against every plane.
+/// as the velocity phase), then every particle of a pair against every plane.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn separate<V: Vector>(
     position: &mut [V],
@@ -392,15 +392,32 @@ pub(crate) fn separate<V: Vector>(
             break;
         }
     }
-    if !planes.is_empty() {
-        blocks.run_blocks(position, |_, base, x: &mut [V]| {
-            for (k, x) in x.iter_mut().enumerate() {
-                for plane in planes {
-                    *x = plane.push_out(*x, radius[base + k]);
-                }
+    if planes.is_empty() {
+        return;
+    }
+    // Planes last, for every particle the pair sweeps may have moved (the others moved only
+    // out of their own planes above), so a walled box holds its particles.
+    let out_of_all_planes = |x: &mut V, r: f64| {
+        for plane in planes {
+            *x = plane.push_out(*x, r);
+        }
+    };
+    let block_walls = |block: usize, base: usize, x: &mut [V]| -> u64 {
+        let limit = base + x.len();
+        for &(i, j) in &pairs[blocks.pair_start[block]..blocks.pair_start[block + 1]] {
+            let (i, j) = (i as usize, j as usize);
+            if j < limit {
+                out_of_all_planes(&mut x[i - base], radius[i]);
+                out_of_all_planes(&mut x[j - base], radius[j]);
             }
-            0
-        });
+        }
+        0
+    };
+    blocks.run_pairs(position, 0, block_walls);
+    blocks.run_pairs(position, 1, block_walls);
+    for &(i, j) in &blocks.leftovers {
+        out_of_all_planes(&mut position[i as usize], radius[i as usize]);
+        out_of_all_planes(&mut position[j as usize], radius[j as usize]);
     }
 }
 
