@@ -449,17 +449,20 @@ fn measure<V: Vector>(
     let mut world = scene
         .into_world()
         .map_err(|e| Failure::input(e.to_string()))?;
-    for _ in 0..case.warmup {
-        world.step();
-    }
-    let setup_seconds = started.elapsed().as_secs_f64();
     let n = world.len();
     let mut contacts = 0u64;
-    let t = Instant::now();
-    for _ in 0..case.steps {
-        contacts += world.step().contacts as u64;
-    }
-    let seconds = t.elapsed().as_secs_f64();
+    // On a pool thread, as `carom run` steps (see run.rs).
+    let (setup_seconds, seconds) = rayon::scope(|_| {
+        for _ in 0..case.warmup {
+            world.step();
+        }
+        let setup_seconds = started.elapsed().as_secs_f64();
+        let t = Instant::now();
+        for _ in 0..case.steps {
+            contacts += world.step().contacts as u64;
+        }
+        (setup_seconds, t.elapsed().as_secs_f64())
+    });
     let steps = case.steps.max(1) as f64;
     let peak = peak_rss_bytes();
     Ok(Measured {

@@ -151,15 +151,19 @@ fn run_scene<V: Vector>(mut scene: Scene<V>, origin: &str, args: &RunArgs) -> Re
     let mut contacts_max = 0usize;
     let mut capped_steps = 0u64;
     let started = Instant::now();
-    for step in 0..steps {
-        let stats = world.step();
-        contacts_total += stats.contacts as u64;
-        contacts_max = contacts_max.max(stats.contacts);
-        capped_steps += stats.capped as u64;
-        if step % 64 == 63 {
-            progress.set_position(step + 1);
+    // Step on a pool thread: parallel calls made from outside the pool go through rayon's
+    // global queue, which allocates as it goes; from inside, stepping allocates nothing.
+    rayon::scope(|_| {
+        for step in 0..steps {
+            let stats = world.step();
+            contacts_total += stats.contacts as u64;
+            contacts_max = contacts_max.max(stats.contacts);
+            capped_steps += stats.capped as u64;
+            if step % 64 == 63 {
+                progress.set_position(step + 1);
+            }
         }
-    }
+    });
     let elapsed = started.elapsed().as_secs_f64();
     progress.finish_and_clear();
 
@@ -275,4 +279,10 @@ fn change(a: f64, b: f64) -> String {
 fn vec_fmt<V: Vector>(v: V) -> String {
     let parts: Vec<String> = (0..V::DIM).map(|a| format!("{:.6e}", v.get(a))).collect();
     format!("({})", parts.join(", "))
+}
+
+/// Loads the scene named by `args` (a file, a preset, or the default preset), for other
+/// subcommands (`carom render`).
+pub(crate) fn load_scene(args: &RunArgs) -> Result<(AnyScene, String), Failure> {
+    load(args)
 }

@@ -1,0 +1,109 @@
+//! "No allocation in the step loop after warm-up": a counting global allocator watches
+//! `World::step` once the buffers have grown to size.
+
+use carom_engine::glam::{DVec2, DVec3};
+use carom_engine::world::REORDER_INTERVAL;
+use carom_engine::{Aabb, BroadPhaseKind, Vector, World};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// A jittered lattice gas filling a walled box, without gravity so that it reaches a steady
+/// state (contacts come and go every step, but their number does not keep growing, which
+/// would legitimately grow the buffers).
+fn gas<V: Vector>(per_axis: usize, kind: BroadPhaseKind) -> World<V> {
+    let spacing = 2.5;
+    let half = per_axis as f64 * spacing / 2.0 + 2.0;
+    let mut b = World::<V>::builder()
+        .dt(0.01)
+        .restitution(0.7)
+        .domain(Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap())
+        .walls(0.9)
+        .broad_phase(kind);
+    let mut s = 3u64;
+    let mut next = || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let count = per_axis.pow(V::DIM as u32);
+    for k in 0..count {
+        let mut c = [0.0; 3];
+        let mut rest = k;
+        for slot in c.iter_mut().take(V::DIM) {
+            *slot = -half + 2.0 + (rest % per_axis) as f64 * spacing + 0.2 * next();
+            rest /= per_axis;
+        }
+        let v = [10.0 * next(), 10.0 * next(), 10.0 * next()];
+        b = b.particle(V::from_slice(&c), V::from_slice(&v), 1.0, 1.0);
+    }
+    b.build().unwrap()
+}
+
+fn allocations_in_steps<V: Vector>(world: &mut World<V>, steps: u64) -> usize {
+    // warm up over several re-sorts so every buffer has reached its working size
+    for _ in 0..8 * REORDER_INTERVAL {
+        world.step();
+    }
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    for _ in 0..steps {
+        world.step();
+    }
+    ALLOCATIONS.load(Ordering::Relaxed) - before
+}
+
+#[test]
+fn stepping_does_not_allocate_after_warm_up() {
+    // serial (small) and parallel (above the engine's threshold) paths, all broad phases
+    for kind in [
+        BroadPhaseKind::Grid,
+        BroadPhaseKind::Hash,
+        BroadPhaseKind::Brute,
+    ] {
+        let mut w = gas::<DVec2>(30, kind);
+        let n = allocations_in_steps(&mut w, 2 * REORDER_INTERVAL);
+        assert_eq!(n, 0, "2D, 900 particles, {kind:?}: {n} allocations");
+    }
+    // 22,500 particles: the parallel phases, on a one-thread pool so that no work is stolen
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let mut w = gas::<DVec2>(150, BroadPhaseKind::Grid);
+    let n = pool.install(|| allocations_in_steps(&mut w, REORDER_INTERVAL));
+    assert_eq!(n, 0, "2D, 22,500 particles, one thread: {n} allocations");
+    // ... and on two threads. Stepping runs inside the pool: from outside it, every parallel
+    // call is injected into rayon's global queue, which allocates a block per 63 injections
+    // (rayon's bookkeeping, not the engine's); `carom run` steps inside the pool too.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let mut w = gas::<DVec2>(150, BroadPhaseKind::Grid);
+    let n = pool.install(|| allocations_in_steps(&mut w, REORDER_INTERVAL));
+    assert_eq!(n, 0, "2D, 22,500 particles, two threads: {n} allocations");
+    let mut w = gas::<DVec3>(12, BroadPhaseKind::Grid);
+    let n = allocations_in_steps(&mut w, REORDER_INTERVAL);
+    assert_eq!(n, 0, "3D, 1728 particles: {n} allocations");
+}
