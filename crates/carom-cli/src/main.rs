@@ -1,7 +1,10 @@
 //! `carom`: run particle collision scenes from the command line.
 
 mod bench;
+mod render;
 mod run;
+mod session;
+mod view;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
@@ -26,8 +29,15 @@ enum Command {
     },
     /// List the built-in scenes (the files in scenes/).
     Presets,
+    /// Continue a run from a checkpoint, bit-identically to an uninterrupted run.
+    Resume(session::ResumeArgs),
     /// Measure speed: the lecture's brute force vs grid table and a scale sweep.
     Bench(bench::BenchArgs),
+    /// Run a scene and draw it: a PNG of the final state, or an animated GIF/MP4 of frames.
+    Render(render::RenderArgs),
+    /// Open a window that shows a scene while it runs, with controls, plots and the lecture's
+    /// hash grid, neighbour cells and contact normals.
+    View(view::ViewArgs),
 }
 
 /// Options of `carom run`.
@@ -54,6 +64,20 @@ pub struct RunArgs {
     /// for every count.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Write a checkpoint (the complete state, atomically) to this file every
+    /// `--checkpoint-every` steps, and on Ctrl-C; continue it with `carom resume`.
+    #[arg(long, requires = "checkpoint_every")]
+    pub checkpoint: Option<PathBuf>,
+    /// Steps between checkpoints.
+    #[arg(long, requires = "checkpoint")]
+    pub checkpoint_every: Option<u64>,
+    /// Write trajectory frames (CSV with `step` and `time` columns) to this file, one at the
+    /// start and one every `--every` steps.
+    #[arg(long, requires = "every")]
+    pub trajectory: Option<PathBuf>,
+    /// Steps between trajectory frames.
+    #[arg(long, requires = "trajectory")]
+    pub every: Option<u64>,
 }
 
 /// `--broadphase` values.
@@ -73,6 +97,9 @@ fn main() -> ExitCode {
         Command::Run(args) => run::run(&args),
         Command::Check { scene } => run::check(&scene),
         Command::Bench(args) => bench::bench(&args),
+        Command::Resume(args) => session::resume(&args),
+        Command::View(args) => view::view(&args),
+        Command::Render(args) => render::render(&args),
         Command::Presets => {
             for (name, text) in carom_scene::PRESETS {
                 let title = text

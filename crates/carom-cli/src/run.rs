@@ -1,11 +1,11 @@
 //! `carom run` and `carom check`.
 
+use crate::session::{drive, install_interrupt_handler, Driven, Outputs, Settings, INTERRUPTED};
 use crate::{BroadPhaseArg, RunArgs};
 use carom_engine::{BroadPhaseKind, Vector, World};
 use carom_scene::{AnyScene, Scene};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
-use std::time::Instant;
 
 /// A failure with the exit status it deserves: 2 for bad input, 1 for a failure while working.
 pub struct Failure {
@@ -29,10 +29,17 @@ impl Failure {
 }
 
 fn load(args: &RunArgs) -> Result<(AnyScene, String), Failure> {
-    match (&args.scene, &args.preset) {
+    load_with_text(args).map(|(scene, origin, _)| (scene, origin))
+}
+
+/// The scene named by `args`, where it came from, and its TOML text (kept in checkpoints).
+fn load_with_text(args: &RunArgs) -> Result<(AnyScene, String, String), Failure> {
+    let (text, origin) = match (&args.scene, &args.preset) {
         (Some(path), _) => {
-            let scene = carom_scene::load(path).map_err(|e| Failure::input(e.to_string()))?;
-            Ok((scene, path.display().to_string()))
+            let origin = path.display().to_string();
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| Failure::input(format!("{origin}: cannot read scene file: {e}")))?;
+            (text, origin)
         }
         (None, preset) => {
             let name = preset.as_deref().unwrap_or(carom_scene::DEFAULT_PRESET);
@@ -43,12 +50,66 @@ fn load(args: &RunArgs) -> Result<(AnyScene, String), Failure> {
                     names.join(", ")
                 ))
             })?;
-            let origin = format!("preset:{name}");
-            let scene =
-                carom_scene::parse(text, &origin).map_err(|e| Failure::input(e.to_string()))?;
-            Ok((scene, origin))
+            (text.to_string(), format!("preset:{name}"))
         }
+    };
+    let scene = carom_scene::parse(&text, &origin).map_err(|e| Failure::input(e.to_string()))?;
+    Ok((scene, origin, text))
+}
+
+/// Sets the global thread count (`--threads`), refusing 0.
+pub fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
+    if let Some(threads) = threads {
+        if threads == 0 {
+            return Err(Failure::input("--threads: must be at least 1"));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build_global()
+            .map_err(|e| Failure::runtime(format!("cannot start {threads} threads: {e}")))?;
     }
+    Ok(())
+}
+
+/// Applies `--broadphase` and `--cells` to a scene.
+pub fn apply_overrides<V: Vector>(
+    scene: &mut Scene<V>,
+    broadphase: Option<&str>,
+    cells: Option<&[usize]>,
+) -> Result<(), Failure> {
+    match broadphase {
+        Some("brute") => scene.config.broad_phase = BroadPhaseKind::Brute,
+        Some("grid") => scene.config.broad_phase = BroadPhaseKind::Grid,
+        Some("hash") => scene.config.broad_phase = BroadPhaseKind::Hash,
+        Some(other) => return Err(Failure::input(format!("--broadphase: unknown `{other}`"))),
+        None => {}
+    }
+    if let Some(cells) = cells {
+        if cells.len() != V::DIM || cells.contains(&0) {
+            return Err(Failure::input(format!(
+                "--cells: needs {} whole numbers >= 1 (the scene is {}D), got {cells:?}",
+                V::DIM,
+                V::DIM
+            )));
+        }
+        if scene.config.broad_phase != BroadPhaseKind::Grid {
+            return Err(Failure::input(
+                "--cells: only the grid has cells, and this run does not use it; add --broadphase grid",
+            ));
+        }
+        scene.config.grid_cells = Some(cells.to_vec());
+    }
+    Ok(())
+}
+
+/// The step progress bar (drawn only on a terminal).
+pub fn progress_bar(steps: u64) -> ProgressBar {
+    let progress = ProgressBar::new(steps);
+    progress.set_style(
+        ProgressStyle::with_template("{spinner} step {pos}/{len} {wide_bar} {eta} left")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    progress
 }
 
 /// Refuses an output path whose folder is missing or which is a folder itself, before any
@@ -89,100 +150,102 @@ pub fn check(path: &Path) -> Result<(), Failure> {
 }
 
 pub fn run(args: &RunArgs) -> Result<(), Failure> {
-    if let Some(threads) = args.threads {
-        if threads == 0 {
-            return Err(Failure::input("--threads: must be at least 1"));
-        }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build_global()
-            .map_err(|e| Failure::runtime(format!("cannot start {threads} threads: {e}")))?;
-    }
+    set_threads(args.threads)?;
     if let Some(out) = &args.out {
         check_output_path("--out", out)?;
     }
-    let (scene, origin) = load(args)?;
+    let (scene, origin, text) = load_with_text(args)?;
     match scene {
-        AnyScene::Two(s) => run_scene(s, &origin, args),
-        AnyScene::Three(s) => run_scene(s, &origin, args),
+        AnyScene::Two(s) => run_scene(s, &origin, text, args),
+        AnyScene::Three(s) => run_scene(s, &origin, text, args),
     }
 }
 
-fn run_scene<V: Vector>(mut scene: Scene<V>, origin: &str, args: &RunArgs) -> Result<(), Failure> {
+fn run_scene<V: Vector>(
+    mut scene: Scene<V>,
+    origin: &str,
+    text: String,
+    args: &RunArgs,
+) -> Result<(), Failure> {
     if let Some(steps) = args.steps {
         scene.steps = steps;
     }
-    match args.broadphase {
-        Some(BroadPhaseArg::Brute) => scene.config.broad_phase = BroadPhaseKind::Brute,
-        Some(BroadPhaseArg::Grid) => scene.config.broad_phase = BroadPhaseKind::Grid,
-        Some(BroadPhaseArg::Hash) => scene.config.broad_phase = BroadPhaseKind::Hash,
-        None => {}
-    }
-    if let Some(cells) = &args.cells {
-        if cells.len() != V::DIM || cells.contains(&0) {
-            return Err(Failure::input(format!(
-                "--cells: needs {} whole numbers >= 1 (the scene is {}D), got {cells:?}",
-                V::DIM,
-                V::DIM
-            )));
-        }
-        if scene.config.broad_phase != BroadPhaseKind::Grid {
-            return Err(Failure::input(
-                "--cells: only the grid has cells, and this run does not use it; add --broadphase grid",
-            ));
-        }
-        scene.config.grid_cells = Some(cells.clone());
-    }
+    let broadphase = args.broadphase.map(|b| match b {
+        BroadPhaseArg::Brute => "brute",
+        BroadPhaseArg::Grid => "grid",
+        BroadPhaseArg::Hash => "hash",
+    });
+    apply_overrides(&mut scene, broadphase, args.cells.as_deref())?;
+    let outputs = Outputs {
+        checkpoint: args.checkpoint.clone().zip(args.checkpoint_every),
+        trajectory: args.trajectory.clone().zip(args.every),
+        scene_toml: text,
+        origin: origin.to_string(),
+        settings: Settings {
+            steps: scene.steps,
+            broadphase: broadphase.map(str::to_string),
+            cells: args.cells.clone(),
+        },
+    };
+    outputs.check()?;
     let name = scene.name.clone();
     let steps = scene.steps;
     let mut world = scene
         .into_world()
         .map_err(|e| Failure::input(format!("{origin}: {e}")))?;
+    install_interrupt_handler();
 
     let energy_before = (world.kinetic_energy(), world.potential_energy());
     let momentum_before = world.momentum();
-
-    let progress = ProgressBar::new(steps);
-    progress.set_style(
-        ProgressStyle::with_template("{spinner} step {pos}/{len} {wide_bar} {eta} left")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let mut contacts_total: u64 = 0;
-    let mut contacts_max = 0usize;
-    let mut capped_steps = 0u64;
-    let started = Instant::now();
-    // Step on a pool thread: parallel calls made from outside the pool go through rayon's
-    // global queue, which allocates as it goes; from inside, stepping allocates nothing.
-    rayon::scope(|_| {
-        for step in 0..steps {
-            let stats = world.step();
-            contacts_total += stats.contacts as u64;
-            contacts_max = contacts_max.max(stats.contacts);
-            capped_steps += stats.capped as u64;
-            if step % 64 == 63 {
-                progress.set_position(step + 1);
-            }
-        }
-    });
-    let elapsed = started.elapsed().as_secs_f64();
+    let progress = progress_bar(steps);
+    let driven = drive(&mut world, steps, &outputs, &progress)?;
     progress.finish_and_clear();
+    finish(
+        &world,
+        name.as_deref(),
+        origin,
+        energy_before,
+        momentum_before,
+        &driven,
+        args.out.as_deref(),
+    )
+}
 
-    if let Some(out) = &args.out {
+/// After the loop: the final CSV (unless interrupted), the summary, and the exit status.
+pub fn finish<V: Vector>(
+    world: &World<V>,
+    name: Option<&str>,
+    origin: &str,
+    energy_before: (f64, f64),
+    momentum_before: V,
+    driven: &Driven,
+    out: Option<&Path>,
+) -> Result<(), Failure> {
+    if let Some(at) = driven.interrupted_at {
+        return Err(Failure {
+            status: INTERRUPTED,
+            message: format!(
+                "interrupted after step {at}; trajectory frames so far are on disk, and the \
+                 checkpoint (if one was asked for) holds step {at}: continue with `carom resume`"
+            ),
+        });
+    }
+    if let Some(out) = out {
         carom_output::save_state_csv(out, world.particles())
             .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", out.display())))?;
     }
     print_summary(
-        name.as_deref(),
-        steps,
+        name,
+        driven.steps_run,
         origin,
-        &world,
+        world,
         energy_before,
         momentum_before,
-        elapsed,
-        contacts_total,
-        contacts_max,
-        capped_steps,
-        args,
+        driven.seconds,
+        driven.contacts_total,
+        driven.contacts_max,
+        driven.capped_steps,
+        out,
     );
     Ok(())
 }
@@ -199,7 +262,7 @@ fn print_summary<V: Vector>(
     contacts_total: u64,
     contacts_max: usize,
     capped_steps: u64,
-    args: &RunArgs,
+    out: Option<&Path>,
 ) {
     let name = name.unwrap_or("(unnamed)");
     println!("scene       {name} [{origin}]");
@@ -259,7 +322,7 @@ fn print_summary<V: Vector>(
         vec_fmt(p0),
         vec_fmt(world.momentum())
     );
-    if let Some(out) = &args.out {
+    if let Some(out) = out {
         println!("output      {}", out.display());
     }
 }

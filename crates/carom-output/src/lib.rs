@@ -5,6 +5,8 @@
 //! target, so a crash or a bad input never leaves a half-written file behind.
 #![warn(missing_docs)]
 
+pub mod checkpoint;
+
 use carom_engine::{Particles, Vector};
 use std::io::{self, BufWriter, Write};
 use std::path::Path;
@@ -23,14 +25,43 @@ where
         .prefix(".carom-")
         .suffix(".tmp")
         .tempfile_in(dir)?;
-    {
-        let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file_mut());
-        write(&mut w)?;
-        w.flush()?;
+    let tmp_path = tmp.path().to_path_buf();
+    in_flight().push(tmp_path.clone());
+    let result = (|| {
+        {
+            let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file_mut());
+            write(&mut w)?;
+            w.flush()?;
+        }
+        // Temporaries are private (0600); the result is an ordinary file.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            tmp.as_file()
+                .set_permissions(std::fs::Permissions::from_mode(0o644))?;
+        }
+        tmp.as_file().sync_all()?;
+        tmp.persist(path).map_err(|e| e.error)?;
+        Ok(())
+    })();
+    in_flight().retain(|p| p != &tmp_path);
+    result
+}
+
+/// Temporaries being written right now (see [`remove_in_flight_temporaries`]).
+fn in_flight() -> std::sync::MutexGuard<'static, Vec<std::path::PathBuf>> {
+    static IN_FLIGHT: std::sync::Mutex<Vec<std::path::PathBuf>> = std::sync::Mutex::new(Vec::new());
+    IN_FLIGHT
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// Deletes the temporaries of writes still under way, for a process about to exit at once (a
+/// second Ctrl-C): the targets are then untouched, and nothing half-written is left behind.
+pub fn remove_in_flight_temporaries() {
+    for p in in_flight().drain(..) {
+        let _ = std::fs::remove_file(p);
     }
-    tmp.as_file().sync_all()?;
-    tmp.persist(path).map_err(|e| e.error)?;
-    Ok(())
 }
 
 /// The CSV header for `dim` dimensions: `id,x,y,vx,vy,radius,mass` or

@@ -59,6 +59,19 @@ impl<V: Vector> Scene<V> {
         self.builder(particles).build()
     }
 
+    /// Builds the world as a continuation: `steps_taken` steps already done, particles in
+    /// `storage_order` (see [`carom_engine::WorldBuilder::resume`]).
+    pub fn into_resumed_world(
+        mut self,
+        steps_taken: u64,
+        storage_order: Vec<u32>,
+    ) -> Result<World<V>, EngineError> {
+        let particles = std::mem::take(&mut self.particles);
+        self.builder(particles)
+            .resume(steps_taken, storage_order)
+            .build()
+    }
+
     fn builder(&self, particles: Particles<V>) -> carom_engine::WorldBuilder<V> {
         let mut b = World::builder()
             .dt(self.config.dt)

@@ -1,0 +1,336 @@
+//! Long runs that lose nothing: the step loop with trajectories, checkpoints and interrupts,
+//! and `carom resume`.
+//!
+//! - Trajectory (`--trajectory PATH --every K`): one CSV, `step,time,id,...`, a frame at the
+//!   start and every K steps, flushed frame by frame, so a killed run leaves every whole frame
+//!   readable (only a last, partial frame can be cut).
+//! - Checkpoint (`--checkpoint PATH --checkpoint-every K`): the complete state, written
+//!   atomically (temporary, fsync, rename); `carom resume PATH` continues bit for bit.
+//! - Ctrl-C or SIGTERM: the current step finishes, a checkpoint is written (if asked for), the
+//!   trajectory is flushed, and carom exits with status 130. A second one exits at once,
+//!   removing any temporary still being written, so no partial file is left.
+
+use crate::run::{check_output_path, Failure};
+use carom_engine::{Vector, World};
+use carom_output::checkpoint::Checkpoint;
+use indicatif::ProgressBar;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Exit status after an interrupt (128 + SIGINT).
+pub const INTERRUPTED: u8 = 130;
+
+/// Routes Ctrl-C and SIGTERM to a graceful stop (first) or an immediate exit (second).
+pub fn install_interrupt_handler() {
+    let _ = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            carom_output::remove_in_flight_temporaries();
+            std::process::exit(INTERRUPTED as i32);
+        }
+    });
+}
+
+/// Run settings a checkpoint must carry besides the scene text.
+#[derive(serde::Serialize, serde::Deserialize, Debug, Clone, Default)]
+pub struct Settings {
+    /// Total steps of the run.
+    pub steps: u64,
+    /// `--broadphase` override, if any.
+    pub broadphase: Option<String>,
+    /// `--cells` override, if any.
+    pub cells: Option<Vec<usize>>,
+}
+
+/// Where long-run output goes.
+pub struct Outputs {
+    pub checkpoint: Option<(PathBuf, u64)>,
+    pub trajectory: Option<(PathBuf, u64)>,
+    pub scene_toml: String,
+    pub origin: String,
+    pub settings: Settings,
+}
+
+impl Outputs {
+    /// Checks the paths and intervals before any work.
+    pub fn check(&self) -> Result<(), Failure> {
+        if let Some((path, every)) = &self.checkpoint {
+            check_output_path("--checkpoint", path)?;
+            if *every == 0 {
+                return Err(Failure::input("--checkpoint-every: must be at least 1"));
+            }
+        }
+        if let Some((path, every)) = &self.trajectory {
+            check_output_path("--trajectory", path)?;
+            if *every == 0 {
+                return Err(Failure::input("--every: must be at least 1"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What the loop saw.
+#[derive(Default)]
+pub struct Driven {
+    pub seconds: f64,
+    pub steps_run: u64,
+    pub contacts_total: u64,
+    pub contacts_max: usize,
+    pub capped_steps: u64,
+    /// The step at which an interrupt stopped the run.
+    pub interrupted_at: Option<u64>,
+}
+
+fn trajectory_header(dim: usize) -> String {
+    format!("step,time,{}", carom_output::csv_header(dim))
+}
+
+fn write_frame<V: Vector>(out: &mut impl Write, world: &World<V>) -> std::io::Result<()> {
+    let (step, time) = (world.steps_taken(), world.time());
+    for id in 0..world.len() {
+        let (x, v, r, m) = world.particle(id);
+        write!(out, "{step},{time},{id}")?;
+        for a in 0..V::DIM {
+            write!(out, ",{}", x.get(a))?;
+        }
+        for a in 0..V::DIM {
+            write!(out, ",{}", v.get(a))?;
+        }
+        writeln!(out, ",{r},{m}")?;
+    }
+    out.flush()
+}
+
+/// Writes a checkpoint of `world` atomically.
+pub fn save_checkpoint<V: Vector>(
+    path: &Path,
+    world: &World<V>,
+    outputs: &Outputs,
+) -> Result<(), Failure> {
+    let n = world.len();
+    let mut cp = Checkpoint {
+        dimensions: V::DIM as u32,
+        steps_taken: world.steps_taken(),
+        scene_toml: outputs.scene_toml.clone(),
+        origin: outputs.origin.clone(),
+        settings_json: serde_json::to_string(&outputs.settings)
+            .map_err(|e| Failure::runtime(e.to_string()))?,
+        storage_order: world.storage_order().to_vec(),
+        positions: Vec::with_capacity(n * V::DIM),
+        velocities: Vec::with_capacity(n * V::DIM),
+        radii: Vec::with_capacity(n),
+        masses: Vec::with_capacity(n),
+    };
+    for id in 0..n {
+        let (x, v, r, m) = world.particle(id);
+        cp.positions.extend((0..V::DIM).map(|a| x.get(a)));
+        cp.velocities.extend((0..V::DIM).map(|a| v.get(a)));
+        cp.radii.push(r);
+        cp.masses.push(m);
+    }
+    carom_output::write_atomic(path, |w| cp.write_to(w))
+        .map_err(|e| Failure::runtime(format!("cannot write checkpoint {}: {e}", path.display())))
+}
+
+/// Steps `world` until `total_steps`, writing trajectory frames and checkpoints, and stopping
+/// early (after a whole step) on an interrupt.
+pub fn drive<V: Vector>(
+    world: &mut World<V>,
+    total_steps: u64,
+    outputs: &Outputs,
+    progress: &ProgressBar,
+) -> Result<Driven, Failure> {
+    let mut trajectory = match &outputs.trajectory {
+        None => None,
+        Some((path, every)) => {
+            // A fresh run starts the file; a resumed one appends to it.
+            let fresh = world.steps_taken() == 0;
+            let file = std::fs::OpenOptions::new()
+                .create(true)
+                .write(true)
+                .append(!fresh)
+                .truncate(fresh)
+                .open(path)
+                .map_err(|e| Failure::runtime(format!("cannot open {}: {e}", path.display())))?;
+            let mut w = BufWriter::with_capacity(1 << 16, file);
+            let io = |e: std::io::Error| {
+                Failure::runtime(format!("cannot write {}: {e}", path.display()))
+            };
+            if fresh {
+                writeln!(w, "{}", trajectory_header(V::DIM)).map_err(io)?;
+                write_frame(&mut w, world).map_err(io)?;
+            }
+            Some((w, *every, path.clone()))
+        }
+    };
+    let mut driven = Driven::default();
+    let started = Instant::now();
+    let mut failure = None;
+    // Step on a pool thread: parallel calls made from outside the pool go through rayon's
+    // global queue, which allocates as it goes; from inside, stepping allocates nothing.
+    rayon::scope(|_| {
+        while world.steps_taken() < total_steps {
+            let stats = world.step();
+            driven.steps_run += 1;
+            driven.contacts_total += stats.contacts as u64;
+            driven.contacts_max = driven.contacts_max.max(stats.contacts);
+            driven.capped_steps += stats.capped as u64;
+            let step = world.steps_taken();
+            if step % 64 == 0 {
+                progress.set_position(step);
+            }
+            if let Some((w, every, path)) = trajectory.as_mut() {
+                if step % *every == 0 {
+                    if let Err(e) = write_frame(w, world) {
+                        failure = Some(Failure::runtime(format!(
+                            "cannot write {}: {e}",
+                            path.display()
+                        )));
+                        return;
+                    }
+                }
+            }
+            if let Some((path, every)) = &outputs.checkpoint {
+                if step % every == 0 {
+                    if let Err(e) = save_checkpoint(path, world, outputs) {
+                        failure = Some(e);
+                        return;
+                    }
+                }
+            }
+            if STOP.load(Ordering::SeqCst) && step < total_steps {
+                driven.interrupted_at = Some(step);
+                return;
+            }
+        }
+    });
+    driven.seconds = started.elapsed().as_secs_f64();
+    if let Some(f) = failure {
+        return Err(f);
+    }
+    if let Some(at) = driven.interrupted_at {
+        if let Some((path, every)) = &outputs.checkpoint {
+            if at % every != 0 {
+                save_checkpoint(path, world, outputs)?;
+            }
+        }
+    }
+    Ok(driven)
+}
+
+/// Options of `carom resume`.
+#[derive(clap::Args, Debug)]
+pub struct ResumeArgs {
+    /// A checkpoint written by `carom run --checkpoint`.
+    pub checkpoint: PathBuf,
+    /// Total steps to reach (default: the original run's).
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Write the final state here as CSV.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Keep checkpointing (to this file) every `--checkpoint-every` steps.
+    #[arg(long, requires = "checkpoint_every")]
+    pub checkpoint_to: Option<PathBuf>,
+    /// Steps between checkpoints.
+    #[arg(long)]
+    pub checkpoint_every: Option<u64>,
+    /// Append trajectory frames to this CSV every `--every` steps.
+    #[arg(long, requires = "every")]
+    pub trajectory: Option<PathBuf>,
+    /// Steps between trajectory frames.
+    #[arg(long)]
+    pub every: Option<u64>,
+    /// Worker threads.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// `carom resume`.
+pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
+    crate::run::set_threads(args.threads)?;
+    let shown = args.checkpoint.display().to_string();
+    let bytes = std::fs::read(&args.checkpoint)
+        .map_err(|e| Failure::input(format!("{shown}: cannot read checkpoint: {e}")))?;
+    let cp = Checkpoint::read_from(&bytes).map_err(|e| Failure::input(format!("{shown}: {e}")))?;
+    let settings: Settings = serde_json::from_str(&cp.settings_json)
+        .map_err(|e| Failure::input(format!("{shown}: damaged run settings: {e}")))?;
+    let outputs = Outputs {
+        checkpoint: args.checkpoint_to.clone().zip(args.checkpoint_every),
+        trajectory: args.trajectory.clone().zip(args.every),
+        scene_toml: cp.scene_toml.clone(),
+        origin: cp.origin.clone(),
+        settings: Settings {
+            steps: args.steps.unwrap_or(settings.steps),
+            ..settings.clone()
+        },
+    };
+    outputs.check()?;
+    if let Some(out) = &args.out {
+        check_output_path("--out", out)?;
+    }
+    let scene = carom_scene::parse(&cp.scene_toml, &cp.origin)
+        .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
+    match scene {
+        carom_scene::AnyScene::Two(s) => resume_scene(s, &cp, &settings, &outputs, args),
+        carom_scene::AnyScene::Three(s) => resume_scene(s, &cp, &settings, &outputs, args),
+    }
+}
+
+fn resume_scene<V: Vector>(
+    mut scene: carom_scene::Scene<V>,
+    cp: &Checkpoint,
+    settings: &Settings,
+    outputs: &Outputs,
+    args: &ResumeArgs,
+) -> Result<(), Failure> {
+    let shown = args.checkpoint.display().to_string();
+    if cp.dimensions as usize != V::DIM {
+        return Err(Failure::input(format!(
+            "{shown}: damaged checkpoint: dimensions disagree with its scene"
+        )));
+    }
+    crate::run::apply_overrides(
+        &mut scene,
+        settings.broadphase.as_deref(),
+        settings.cells.as_deref(),
+    )?;
+    let mut particles = carom_engine::Particles::new();
+    for id in 0..cp.radii.len() {
+        let d = V::DIM;
+        particles
+            .push(
+                V::from_slice(&cp.positions[id * d..id * d + d]),
+                V::from_slice(&cp.velocities[id * d..id * d + d]),
+                cp.radii[id],
+                cp.masses[id],
+            )
+            .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
+    }
+    scene.particles = particles;
+    let name = scene.name.clone();
+    let mut world = scene
+        .into_resumed_world(cp.steps_taken, cp.storage_order.clone())
+        .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
+    let total = outputs.settings.steps;
+    install_interrupt_handler();
+    let before = (world.kinetic_energy(), world.potential_energy());
+    let momentum = world.momentum();
+    let progress = crate::run::progress_bar(total);
+    progress.set_position(world.steps_taken());
+    let driven = drive(&mut world, total, outputs, &progress)?;
+    progress.finish_and_clear();
+    crate::run::finish(
+        &world,
+        name.as_deref(),
+        &shown,
+        before,
+        momentum,
+        &driven,
+        args.out.as_deref(),
+    )
+}

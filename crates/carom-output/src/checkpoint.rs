@@ -1,0 +1,266 @@
+//! Checkpoints: the complete state of a run, so that `carom resume` continues bit for bit.
+//!
+//! Layout (all integers little-endian):
+//!
+//! ```text
+//! b"CAROMCKP"            magic
+//! u32                    format version (FORMAT_VERSION)
+//! u32                    dimensions (2 or 3)
+//! u64                    steps taken
+//! u64                    particle count n
+//! u64 + bytes            the scene's TOML text
+//! u64 + bytes            the scene's origin (file name or preset)
+//! u64 + bytes            run settings (JSON: total steps, broad phase, cells)
+//! n x u32                storage order (ids by slot)
+//! n x dim x f64          positions, by id
+//! n x dim x f64          velocities, by id
+//! n x f64                radii, by id
+//! n x f64                masses, by id
+//! u64                    FNV-1a 64 of everything above
+//! ```
+//!
+//! Reading checks the magic, the version, every length against what is left of the file and the
+//! checksum, so a damaged or foreign file is refused with a clear message and never makes the
+//! reader allocate more than the file holds.
+
+use std::io::{self, Write};
+
+/// Bumped whenever the layout or the meaning of a field changes.
+pub const FORMAT_VERSION: u32 = 1;
+
+const MAGIC: &[u8; 8] = b"CAROMCKP";
+
+/// Everything needed to continue a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Checkpoint {
+    /// 2 or 3.
+    pub dimensions: u32,
+    /// Steps already taken.
+    pub steps_taken: u64,
+    /// The scene file's text (parameters, planes; its particles are replaced by the ones here).
+    pub scene_toml: String,
+    /// Where the scene came from, for messages.
+    pub origin: String,
+    /// Run settings as JSON (total steps, broad phase override, cells override).
+    pub settings_json: String,
+    /// Ids by storage slot.
+    pub storage_order: Vec<u32>,
+    /// Positions by id, `dimensions` values each.
+    pub positions: Vec<f64>,
+    /// Velocities by id, `dimensions` values each.
+    pub velocities: Vec<f64>,
+    /// Radii by id.
+    pub radii: Vec<f64>,
+    /// Masses by id.
+    pub masses: Vec<f64>,
+}
+
+struct Hashing<W> {
+    inner: W,
+    hash: u64,
+}
+
+impl<W: Write> Write for Hashing<W> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hash = fnv(self.hash, &buf[..n]);
+        Ok(n)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+
+fn fnv(mut h: u64, bytes: &[u8]) -> u64 {
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+impl Checkpoint {
+    /// Writes the checkpoint.
+    pub fn write_to(&self, out: &mut dyn Write) -> io::Result<()> {
+        let mut w = Hashing {
+            inner: &mut *out,
+            hash: FNV_OFFSET,
+        };
+        w.write_all(MAGIC)?;
+        w.write_all(&FORMAT_VERSION.to_le_bytes())?;
+        w.write_all(&self.dimensions.to_le_bytes())?;
+        w.write_all(&self.steps_taken.to_le_bytes())?;
+        w.write_all(&(self.radii.len() as u64).to_le_bytes())?;
+        for text in [&self.scene_toml, &self.origin, &self.settings_json] {
+            w.write_all(&(text.len() as u64).to_le_bytes())?;
+            w.write_all(text.as_bytes())?;
+        }
+        for id in &self.storage_order {
+            w.write_all(&id.to_le_bytes())?;
+        }
+        for array in [&self.positions, &self.velocities, &self.radii, &self.masses] {
+            for x in array.iter() {
+                w.write_all(&x.to_le_bytes())?;
+            }
+        }
+        let hash = w.hash;
+        out.write_all(&hash.to_le_bytes())
+    }
+
+    /// Reads and checks a checkpoint.
+    pub fn read_from(bytes: &[u8]) -> Result<Self, String> {
+        if bytes.len() < 8 || &bytes[..8] != MAGIC {
+            return Err("not a carom checkpoint (bad magic bytes)".into());
+        }
+        if bytes.len() < 16 {
+            return Err("damaged checkpoint: truncated header".into());
+        }
+        let (body, tail) = bytes.split_at(bytes.len() - 8);
+        let stored = u64::from_le_bytes(tail.try_into().expect("8 bytes"));
+        let mut r = Reader { bytes: body, at: 8 };
+        let version = r.u32()?;
+        if version != FORMAT_VERSION {
+            return Err(format!(
+                "checkpoint format version {version}, but this carom reads version {FORMAT_VERSION}; \
+                 resume it with the carom that wrote it"
+            ));
+        }
+        if fnv(FNV_OFFSET, body) != stored {
+            return Err("damaged checkpoint: checksum mismatch".into());
+        }
+        let dimensions = r.u32()?;
+        if dimensions != 2 && dimensions != 3 {
+            return Err(format!("damaged checkpoint: {dimensions} dimensions"));
+        }
+        let steps_taken = r.u64()?;
+        let n = r.u64()? as usize;
+        let scene_toml = r.text()?;
+        let origin = r.text()?;
+        let settings_json = r.text()?;
+        let d = dimensions as usize;
+        let need = n
+            .checked_mul(4 + 2 * 8 * d + 16)
+            .ok_or("damaged checkpoint: particle count")?;
+        if r.left() != need {
+            return Err(format!(
+                "damaged checkpoint: {} bytes of particle data, expected {need}",
+                r.left()
+            ));
+        }
+        let storage_order = (0..n).map(|_| r.u32()).collect::<Result<Vec<_>, _>>()?;
+        let mut floats = |count: usize| (0..count).map(|_| r.f64()).collect::<Result<Vec<_>, _>>();
+        let positions = floats(n * d)?;
+        let velocities = floats(n * d)?;
+        let radii = floats(n)?;
+        let masses = floats(n)?;
+        Ok(Self {
+            dimensions,
+            steps_taken,
+            scene_toml,
+            origin,
+            settings_json,
+            storage_order,
+            positions,
+            velocities,
+            radii,
+            masses,
+        })
+    }
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn take(&mut self, n: usize) -> Result<&[u8], String> {
+        if self.left() < n {
+            return Err("damaged checkpoint: truncated".into());
+        }
+        let s = &self.bytes[self.at..self.at + n];
+        self.at += n;
+        Ok(s)
+    }
+    fn left(&self) -> usize {
+        self.bytes.len() - self.at
+    }
+    fn u32(&mut self) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(
+            self.take(4)?.try_into().expect("4 bytes"),
+        ))
+    }
+    fn u64(&mut self) -> Result<u64, String> {
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
+    }
+    fn f64(&mut self) -> Result<f64, String> {
+        Ok(f64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
+    }
+    fn text(&mut self) -> Result<String, String> {
+        let len = self.u64()? as usize;
+        if len > self.left() {
+            return Err("damaged checkpoint: truncated text".into());
+        }
+        String::from_utf8(self.take(len)?.to_vec())
+            .map_err(|_| "damaged checkpoint: text is not UTF-8".into())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Checkpoint {
+        Checkpoint {
+            dimensions: 2,
+            steps_taken: 17,
+            scene_toml: "dimensions = 2\ndt = 0.01\n".into(),
+            origin: "scene.toml".into(),
+            settings_json: "{}".into(),
+            storage_order: vec![1, 0],
+            positions: vec![0.1, -0.2, 1.0 / 3.0, 5.0],
+            velocities: vec![1.0, 2.0, 3.0, -0.0],
+            radii: vec![0.5, 0.25],
+            masses: vec![1.0, 2.0],
+        }
+    }
+
+    #[test]
+    fn round_trips_bit_for_bit() {
+        let mut bytes = Vec::new();
+        sample().write_to(&mut bytes).unwrap();
+        let back = Checkpoint::read_from(&bytes).unwrap();
+        assert_eq!(back, sample());
+        assert_eq!(back.velocities[3].to_bits(), (-0.0f64).to_bits());
+    }
+
+    #[test]
+    fn damage_and_foreign_files_are_refused() {
+        let mut bytes = Vec::new();
+        sample().write_to(&mut bytes).unwrap();
+        for i in [0, 9, 20, 40, bytes.len() / 2, bytes.len() - 1] {
+            let mut bad = bytes.clone();
+            bad[i] ^= 0x40;
+            assert!(Checkpoint::read_from(&bad).is_err(), "flipped byte {i}");
+        }
+        for cut in [0, 7, 12, 30, bytes.len() - 9, bytes.len() - 1] {
+            assert!(
+                Checkpoint::read_from(&bytes[..cut]).is_err(),
+                "cut at {cut}"
+            );
+        }
+        let mut other = bytes.clone();
+        other[8..12].copy_from_slice(&99u32.to_le_bytes());
+        let e = Checkpoint::read_from(&other).unwrap_err();
+        assert!(e.contains("version 99"), "{e}");
+        assert!(Checkpoint::read_from(b"id,x,y\n1,2,3\n")
+            .unwrap_err()
+            .contains("not a carom checkpoint"));
+    }
+}

@@ -1,0 +1,81 @@
+//! Text with `ab_glyph` and the DejaVu Sans font bundled with `carom-plot`.
+
+use ab_glyph::{point, Font, FontRef, PxScale, ScaleFont};
+use std::sync::OnceLock;
+
+/// DejaVu Sans (see `crates/carom-plot/fonts/`).
+const FONT: &[u8] = include_bytes!("../../carom-plot/fonts/DejaVuSans.ttf");
+
+/// The parsed font, or `None` if it does not parse (then no text is drawn).
+pub(crate) fn font() -> Option<&'static FontRef<'static>> {
+    static PARSED: OnceLock<Option<FontRef<'static>>> = OnceLock::new();
+    PARSED
+        .get_or_init(|| FontRef::try_from_slice(FONT).ok())
+        .as_ref()
+}
+
+/// Height of a capital letter at font size `size`, pixels.
+pub(crate) fn cap_height(size: f32) -> f32 {
+    0.73 * size
+}
+
+/// Lays `text` out from `x` on `baseline` and hands each covered pixel to `pixel`; returns
+/// the advance (width) in pixels.
+fn layout(
+    size: f32,
+    x: f32,
+    baseline: f32,
+    text: &str,
+    mut pixel: impl FnMut(i32, i32, f32),
+) -> f32 {
+    let Some(font) = font() else { return 0.0 };
+    let scale = PxScale::from(size);
+    let scaled = font.as_scaled(scale);
+    let mut caret = x;
+    let mut previous = None;
+    for c in text.chars() {
+        let id = scaled.glyph_id(c);
+        if let Some(p) = previous {
+            caret += scaled.kern(p, id);
+        }
+        previous = Some(id);
+        let glyph = id.with_scale_and_position(scale, point(caret, baseline));
+        caret += scaled.h_advance(id);
+        if let Some(outline) = font.outline_glyph(glyph) {
+            let b = outline.px_bounds();
+            outline.draw(|gx, gy, coverage| {
+                pixel(
+                    b.min.x as i32 + gx as i32,
+                    b.min.y as i32 + gy as i32,
+                    coverage,
+                )
+            });
+        }
+    }
+    caret - x
+}
+
+/// The width of `text` at font size `size`, pixels.
+pub(crate) fn width(size: f32, text: &str) -> f32 {
+    layout(size, 0.0, 0.0, text, |_, _, _| {})
+}
+
+/// Draws `text` into an opaque RGBA buffer of `w` x `h`, from `x` on `baseline`; returns
+/// its width.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn draw(
+    data: &mut [u8],
+    w: usize,
+    h: usize,
+    size: f32,
+    x: f32,
+    baseline: f32,
+    rgb: [f32; 3],
+    text: &str,
+) -> f32 {
+    layout(size, x, baseline, text, |px, py, coverage| {
+        if px >= 0 && py >= 0 && (px as usize) < w && (py as usize) < h {
+            crate::draw::blend(data, py as usize * w + px as usize, rgb, coverage.min(1.0));
+        }
+    })
+}
