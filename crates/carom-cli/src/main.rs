@@ -38,6 +38,9 @@ enum Command {
     /// Open a window that shows a scene while it runs, with controls, plots and the lecture's
     /// hash grid, neighbour cells and contact normals.
     View(view::ViewArgs),
+    /// Long-run check: run a scene (default: the lecture's 5000 particles) for many steps and
+    /// print NaN count, escaped particles, energy and peak memory every `--every` steps.
+    Soak(session::soak::SoakArgs),
 }
 
 /// Options of `carom run`.
@@ -71,8 +74,9 @@ pub struct RunArgs {
     /// Steps between checkpoints.
     #[arg(long, requires = "checkpoint")]
     pub checkpoint_every: Option<u64>,
-    /// Write trajectory frames (CSV with `step` and `time` columns) to this file, one at the
-    /// start and one every `--every` steps.
+    /// Write trajectory frames, one at the start and one every `--every` steps: a `.csv` path
+    /// writes one CSV with `step` and `time` columns; a `.pvd` path writes a VTK series for
+    /// ParaView (one `.vtp` per frame in a folder of the same name, plus the `.pvd` index).
     #[arg(long, requires = "every")]
     pub trajectory: Option<PathBuf>,
     /// Steps between trajectory frames.
@@ -100,6 +104,7 @@ fn main() -> ExitCode {
         Command::Resume(args) => session::resume(&args),
         Command::View(args) => view::view(&args),
         Command::Render(args) => render::render(&args),
+        Command::Soak(args) => session::soak::soak(&args),
         Command::Presets => {
             for (name, text) in carom_scene::PRESETS {
                 let title = text

@@ -3,7 +3,8 @@
 //!
 //! - Trajectory (`--trajectory PATH --every K`): one CSV, `step,time,id,...`, a frame at the
 //!   start and every K steps, flushed frame by frame, so a killed run leaves every whole frame
-//!   readable (only a last, partial frame can be cut).
+//!   readable (only a last, partial frame can be cut). A `.pvd` path writes VTK instead: one
+//!   `.vtp` per frame and the `.pvd` collection, each atomically (see [`vtk`]).
 //! - Checkpoint (`--checkpoint PATH --checkpoint-every K`): the complete state, written
 //!   atomically (temporary, fsync, rename); `carom resume PATH` continues bit for bit.
 //! - Ctrl-C or SIGTERM: the current step finishes, a checkpoint is written (if asked for), the
@@ -19,6 +20,9 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+pub mod soak;
+pub mod vtk;
+
 static STOP: AtomicBool = AtomicBool::new(false);
 
 /// Exit status after an interrupt (128 + SIGINT).
@@ -32,6 +36,11 @@ pub fn install_interrupt_handler() {
             std::process::exit(INTERRUPTED as i32);
         }
     });
+}
+
+/// True once Ctrl-C or SIGTERM asked the run to stop.
+pub fn stop_requested() -> bool {
+    STOP.load(Ordering::SeqCst)
 }
 
 /// Run settings a checkpoint must carry besides the scene text.
@@ -105,6 +114,50 @@ fn write_frame<V: Vector>(out: &mut impl Write, world: &World<V>) -> std::io::Re
     out.flush()
 }
 
+/// A trajectory being written: CSV (appended, flushed frame by frame) or a VTK series.
+enum Trajectory {
+    Csv(BufWriter<std::fs::File>),
+    Vtk(vtk::Series),
+}
+
+impl Trajectory {
+    /// Opens the trajectory at `path` (VTK for a `.pvd`, CSV otherwise); a fresh run starts it
+    /// with the initial frame, a resumed one continues it.
+    fn open<V: Vector>(path: &Path, world: &World<V>) -> Result<Self, Failure> {
+        let io =
+            |e: std::io::Error| Failure::runtime(format!("cannot write {}: {e}", path.display()));
+        let fresh = world.steps_taken() == 0;
+        if vtk::is_pvd(path) {
+            let mut series = vtk::Series::open(path, world.steps_taken()).map_err(io)?;
+            if fresh {
+                series.frame(world).map_err(io)?;
+            }
+            return Ok(Trajectory::Vtk(series));
+        }
+        // A fresh run starts the file; a resumed one appends to it.
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .write(true)
+            .append(!fresh)
+            .truncate(fresh)
+            .open(path)
+            .map_err(|e| Failure::runtime(format!("cannot open {}: {e}", path.display())))?;
+        let mut w = BufWriter::with_capacity(1 << 16, file);
+        if fresh {
+            writeln!(w, "{}", trajectory_header(V::DIM)).map_err(io)?;
+            write_frame(&mut w, world).map_err(io)?;
+        }
+        Ok(Trajectory::Csv(w))
+    }
+
+    fn frame<V: Vector>(&mut self, world: &World<V>) -> std::io::Result<()> {
+        match self {
+            Trajectory::Csv(w) => write_frame(w, world),
+            Trajectory::Vtk(series) => series.frame(world),
+        }
+    }
+}
+
 /// Writes a checkpoint of `world` atomically.
 pub fn save_checkpoint<V: Vector>(
     path: &Path,
@@ -146,26 +199,7 @@ pub fn drive<V: Vector>(
 ) -> Result<Driven, Failure> {
     let mut trajectory = match &outputs.trajectory {
         None => None,
-        Some((path, every)) => {
-            // A fresh run starts the file; a resumed one appends to it.
-            let fresh = world.steps_taken() == 0;
-            let file = std::fs::OpenOptions::new()
-                .create(true)
-                .write(true)
-                .append(!fresh)
-                .truncate(fresh)
-                .open(path)
-                .map_err(|e| Failure::runtime(format!("cannot open {}: {e}", path.display())))?;
-            let mut w = BufWriter::with_capacity(1 << 16, file);
-            let io = |e: std::io::Error| {
-                Failure::runtime(format!("cannot write {}: {e}", path.display()))
-            };
-            if fresh {
-                writeln!(w, "{}", trajectory_header(V::DIM)).map_err(io)?;
-                write_frame(&mut w, world).map_err(io)?;
-            }
-            Some((w, *every, path.clone()))
-        }
+        Some((path, every)) => Some((Trajectory::open(path, world)?, *every, path.clone())),
     };
     let mut driven = Driven::default();
     let started = Instant::now();
@@ -185,7 +219,7 @@ pub fn drive<V: Vector>(
             }
             if let Some((w, every, path)) = trajectory.as_mut() {
                 if step % *every == 0 {
-                    if let Err(e) = write_frame(w, world) {
+                    if let Err(e) = w.frame(world) {
                         failure = Some(Failure::runtime(format!(
                             "cannot write {}: {e}",
                             path.display()
@@ -239,7 +273,7 @@ pub struct ResumeArgs {
     /// Steps between checkpoints.
     #[arg(long)]
     pub checkpoint_every: Option<u64>,
-    /// Append trajectory frames to this CSV every `--every` steps.
+    /// Append trajectory frames to this CSV (or VTK series, for a `.pvd`) every `--every` steps.
     #[arg(long, requires = "every")]
     pub trajectory: Option<PathBuf>,
     /// Steps between trajectory frames.

@@ -39,9 +39,11 @@ impl HashLayout {
     pub fn axis_cell(&self, coordinate: f64) -> i64 {
         let t = coordinate * self.inverse_cell;
         // floor without a libm call: truncate, then step down for negative non-integers
+        // (`saturating_sub`: far below i64::MIN, `t as i64` saturates to i64::MIN, which is
+        // above `t`; found by fuzzing, where `dt = 4294967296` flung a particle that far)
         let f = t as i64;
         if (f as f64) > t {
-            f - 1
+            f.saturating_sub(1)
         } else {
             f
         }
