@@ -6,8 +6,7 @@
 //! through [`carom_output::write_atomic`], MP4 is written by `ffmpeg` to a temporary in the
 //! same folder that is renamed into place only when `ffmpeg` succeeded.
 
-use crate::run::{check_output_path, load_scene, Failure};
-use crate::RunArgs;
+use crate::run::{check_output_path, load_scene, set_threads, Failure};
 use carom_engine::{Vector, World};
 use carom_render::{colour_range, Bounds, Camera, Colouring, Frame, GifFrame, GifWriter, Pixmap};
 use carom_render::{RenderOptions, MAX_SIZE};
@@ -237,29 +236,8 @@ pub fn render(args: &RenderArgs) -> Result<(), Failure> {
     } else {
         None
     };
-    if let Some(threads) = args.threads {
-        if threads == 0 {
-            return Err(Failure::input("--threads: must be at least 1"));
-        }
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build_global()
-            .map_err(|e| Failure::runtime(format!("cannot start {threads} threads: {e}")))?;
-    }
-    let run_args = RunArgs {
-        scene: args.scene.clone(),
-        preset: args.preset.clone(),
-        steps: args.steps,
-        out: None,
-        broadphase: None,
-        cells: None,
-        threads: None,
-        checkpoint: None,
-        checkpoint_every: None,
-        trajectory: None,
-        every: None,
-    };
-    let (scene, origin) = load_scene(&run_args)?;
+    set_threads(args.threads)?;
+    let (scene, origin, _) = load_scene(args.scene.as_deref(), args.preset.as_deref())?;
     let job = Job {
         args,
         size,

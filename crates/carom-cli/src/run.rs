@@ -28,21 +28,18 @@ impl Failure {
     }
 }
 
-fn load(args: &RunArgs) -> Result<(AnyScene, String), Failure> {
-    load_with_text(args).map(|(scene, origin, _)| (scene, origin))
-}
-
-/// The scene named by `args`, where it came from, and its TOML text (kept in checkpoints).
-fn load_with_text(args: &RunArgs) -> Result<(AnyScene, String, String), Failure> {
-    let (text, origin) = match (&args.scene, &args.preset) {
-        (Some(path), _) => {
+/// The TOML text of a scene file, or of a preset (the default one when neither is given), and
+/// where it came from. Shared by every subcommand that takes `[SCENE] [--preset NAME]`.
+pub fn scene_text(scene: Option<&Path>, preset: Option<&str>) -> Result<(String, String), Failure> {
+    match scene {
+        Some(path) => {
             let origin = path.display().to_string();
             let text = std::fs::read_to_string(path)
                 .map_err(|e| Failure::input(format!("{origin}: cannot read scene file: {e}")))?;
-            (text, origin)
+            Ok((text, origin))
         }
-        (None, preset) => {
-            let name = preset.as_deref().unwrap_or(carom_scene::DEFAULT_PRESET);
+        None => {
+            let name = preset.unwrap_or(carom_scene::DEFAULT_PRESET);
             let text = carom_scene::preset(name).ok_or_else(|| {
                 let names: Vec<_> = carom_scene::preset_names().collect();
                 Failure::input(format!(
@@ -50,11 +47,20 @@ fn load_with_text(args: &RunArgs) -> Result<(AnyScene, String, String), Failure>
                     names.join(", ")
                 ))
             })?;
-            (text.to_string(), format!("preset:{name}"))
+            Ok((text.to_string(), format!("preset:{name}")))
         }
-    };
-    let scene = carom_scene::parse(&text, &origin).map_err(|e| Failure::input(e.to_string()))?;
-    Ok((scene, origin, text))
+    }
+}
+
+/// The scene a subcommand names, parsed, with its origin and its TOML text (kept in
+/// checkpoints).
+pub fn load_scene(
+    scene: Option<&Path>,
+    preset: Option<&str>,
+) -> Result<(AnyScene, String, String), Failure> {
+    let (text, origin) = scene_text(scene, preset)?;
+    let parsed = carom_scene::parse(&text, &origin).map_err(|e| Failure::input(e.to_string()))?;
+    Ok((parsed, origin, text))
 }
 
 /// Sets the global thread count (`--threads`), refusing 0.
@@ -154,7 +160,7 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     if let Some(out) = &args.out {
         check_output_path("--out", out)?;
     }
-    let (scene, origin, text) = load_with_text(args)?;
+    let (scene, origin, text) = load_scene(args.scene.as_deref(), args.preset.as_deref())?;
     match scene {
         AnyScene::Two(s) => run_scene(s, &origin, text, args),
         AnyScene::Three(s) => run_scene(s, &origin, text, args),
@@ -342,10 +348,4 @@ fn change(a: f64, b: f64) -> String {
 fn vec_fmt<V: Vector>(v: V) -> String {
     let parts: Vec<String> = (0..V::DIM).map(|a| format!("{:.6e}", v.get(a))).collect();
     format!("({})", parts.join(", "))
-}
-
-/// Loads the scene named by `args` (a file, a preset, or the default preset), for other
-/// subcommands (`carom render`).
-pub(crate) fn load_scene(args: &RunArgs) -> Result<(AnyScene, String), Failure> {
-    load(args)
 }

@@ -102,14 +102,8 @@ fn write_frame<V: Vector>(out: &mut impl Write, world: &World<V>) -> std::io::Re
     let (step, time) = (world.steps_taken(), world.time());
     for id in 0..world.len() {
         let (x, v, r, m) = world.particle(id);
-        write!(out, "{step},{time},{id}")?;
-        for a in 0..V::DIM {
-            write!(out, ",{}", x.get(a))?;
-        }
-        for a in 0..V::DIM {
-            write!(out, ",{}", v.get(a))?;
-        }
-        writeln!(out, ",{r},{m}")?;
+        write!(out, "{step},{time},")?;
+        carom_output::write_state_row(out, id, x, v, r, m)?;
     }
     out.flush()
 }

@@ -48,25 +48,7 @@ fn parse_size(s: &str) -> Result<[f32; 2], String> {
 }
 
 pub fn view(args: &ViewArgs) -> Result<(), Failure> {
-    let (mut text, origin) = match (&args.scene, &args.preset) {
-        (Some(path), _) => {
-            let text = std::fs::read_to_string(path).map_err(|e| {
-                Failure::input(format!("{}: cannot read scene file: {e}", path.display()))
-            })?;
-            (text, path.display().to_string())
-        }
-        (None, preset) => {
-            let name = preset.as_deref().unwrap_or(carom_scene::DEFAULT_PRESET);
-            let text = carom_scene::preset(name).ok_or_else(|| {
-                let names: Vec<_> = carom_scene::preset_names().collect();
-                Failure::input(format!(
-                    "--preset: no built-in scene `{name}`; there are: {}",
-                    names.join(", ")
-                ))
-            })?;
-            (text.to_string(), format!("preset:{name}"))
-        }
-    };
+    let (mut text, origin) = crate::run::scene_text(args.scene.as_deref(), args.preset.as_deref())?;
     // Check the scene here, so that a bad file is one message and exit status 2, not a window.
     let scene = carom_scene::parse(&text, &origin).map_err(|e| Failure::input(e.to_string()))?;
     if let Some(count) = args.count {

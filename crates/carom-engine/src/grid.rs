@@ -137,9 +137,7 @@ impl GridLayout {
     /// The cells on `axis` that can hold a particle within `reach` of `coordinate`, inclusive.
     #[inline]
     pub fn axis_range(&self, axis: usize, coordinate: f64, reach: f64) -> (usize, usize) {
-        // Widen the reach by a relative 1e-9 (far above the rounding of the distance test) and
-        // by the rounding of `coordinate +- reach` itself, so monotonicity does the rest.
-        let widened = reach * (1.0 + 1e-9) + 4.0 * f64::EPSILON * (coordinate.abs() + reach);
+        let widened = widened_reach(coordinate, reach);
         (
             self.axis_cell(axis, coordinate - widened),
             self.axis_cell(axis, coordinate + widened),
@@ -254,6 +252,15 @@ impl<V: Vector> Grid<V> {
         self.cell_start.copy_within(0..total, 1);
         self.cell_start[0] = 0;
     }
+}
+
+/// `reach` widened by a relative 1e-9 (far above the rounding of the distance test) and by the
+/// rounding of `coordinate +- reach` itself. Searching the cells of `coordinate +- widened`
+/// with any monotone cell function then never misses a particle within `reach`; the grid, the
+/// hash and the scene loader's placement check all use it.
+#[inline]
+pub fn widened_reach(coordinate: f64, reach: f64) -> f64 {
+    reach * (1.0 + 1e-9) + 4.0 * f64::EPSILON * (coordinate.abs() + reach)
 }
 
 /// Most cells a derived layout may have for `n` particles: never more than a few per particle,

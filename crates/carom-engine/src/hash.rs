@@ -10,6 +10,7 @@
 //! distance test throws out; a bucket reached through two cells is searched once.
 
 use crate::broadphase::{collect_pairs, BroadPhase, Pair, PARALLEL_SEARCH_MIN};
+use crate::grid::widened_reach;
 use crate::response::is_overlapping;
 use crate::vector::Vector;
 use rayon::prelude::*;
@@ -134,7 +135,7 @@ impl<V: Vector> BroadPhase<V> for SpatialHash {
             for a in 0..V::DIM {
                 // Widened past rounding, as in the grid (see crate::grid).
                 let c = pi.get(a);
-                let widened = reach * (1.0 + 1e-9) + 4.0 * f64::EPSILON * (c.abs() + reach);
+                let widened = widened_reach(c, reach);
                 lo[a] = layout.axis_cell(c - widened);
                 hi[a] = layout
                     .axis_cell(c + widened)

@@ -124,6 +124,44 @@ impl Blocks {
         }
     }
 
+    /// One sweep over every pair, in the fixed order: the even blocks, then the odd blocks (each
+    /// set in parallel), then the leftovers one after another. `visit(i, j, &mut data[i],
+    /// &mut data[j])` says whether it changed anything; the sweep returns how many did.
+    /// `reverse` walks each block's pairs backwards (the leftovers always go forwards).
+    fn sweep_pairs<T, F>(&self, data: &mut [T], pairs: &[Pair], reverse: bool, visit: F) -> u64
+    where
+        T: Send,
+        F: Fn(usize, usize, &mut T, &mut T) -> bool + Sync,
+    {
+        let in_block = |block: usize, base: usize, slots: &mut [T]| -> u64 {
+            let limit = base + slots.len();
+            let mut changed = 0;
+            let mut one = |&(i, j): &Pair| {
+                let (i, j) = (i as usize, j as usize);
+                if j < limit {
+                    // (the others are leftovers)
+                    let (a, b) = pair_mut(slots, i - base, j - base);
+                    changed += visit(i, j, a, b) as u64;
+                }
+            };
+            let mine = &pairs[self.pair_start[block]..self.pair_start[block + 1]];
+            if reverse {
+                mine.iter().rev().for_each(&mut one);
+            } else {
+                mine.iter().for_each(&mut one);
+            }
+            changed
+        };
+        let mut changed = self.run_pairs(data, 0, in_block);
+        changed += self.run_pairs(data, 1, in_block);
+        for &(i, j) in &self.leftovers {
+            let (i, j) = (i as usize, j as usize);
+            let (a, b) = pair_mut(data, i, j);
+            changed += visit(i, j, a, b) as u64;
+        }
+        changed
+    }
+
     /// Runs `work(block, first_slot, slots)` on every block with its own slots.
     fn run_blocks<T, F>(&self, data: &mut [T], work: F) -> u64
     where
@@ -138,6 +176,13 @@ impl Blocks {
             data.chunks_mut(size).enumerate().map(task).sum()
         }
     }
+}
+
+/// `&mut s[i]` and `&mut s[j]` at once, for `i < j`.
+#[inline]
+fn pair_mut<T>(s: &mut [T], i: usize, j: usize) -> (&mut T, &mut T) {
+    let (head, tail) = s.split_at_mut(j);
+    (&mut head[i], &mut tail[0])
 }
 
 /// Read-only particle data the phases need alongside the array they change.
@@ -235,35 +280,17 @@ pub(crate) fn solve_velocities<V: Vector>(
         radius,
         mass,
     } = *bodies;
-    let block_pairs = |reverse: bool| {
-        move |block: usize, base: usize, v: &mut [V]| -> u64 {
-            let limit = base + v.len();
-            let mut responded = 0;
-            let mine = &pairs[blocks.pair_start[block]..blocks.pair_start[block + 1]];
-            let mut visit = |&(i, j): &Pair| {
-                let (i, j) = (i as usize, j as usize);
-                if j >= limit {
-                    return; // a leftover
-                }
-                let (head, tail) = v.split_at_mut(j - base);
-                responded += respond_pair(
-                    position[i],
-                    position[j],
-                    &mut head[i - base],
-                    &mut tail[0],
-                    mass[i],
-                    mass[j],
-                    restitution,
-                    resting_speed,
-                ) as u64;
-            };
-            if reverse {
-                mine.iter().rev().for_each(&mut visit);
-            } else {
-                mine.iter().for_each(&mut visit);
-            }
-            responded
-        }
+    let respond = |i: usize, j: usize, vi: &mut V, vj: &mut V| {
+        respond_pair(
+            position[i],
+            position[j],
+            vi,
+            vj,
+            mass[i],
+            mass[j],
+            restitution,
+            resting_speed,
+        )
     };
     let block_planes = |block: usize, base: usize, v: &mut [V]| -> u64 {
         let mut responded = 0;
@@ -288,22 +315,7 @@ pub(crate) fn solve_velocities<V: Vector>(
         // Alternate the direction within each block (symmetric Gauss-Seidel): support then
         // spreads both ways through a stack instead of one layer per sweep.
         let reverse = solve.iterations % 2 == 0;
-        responded += blocks.run_pairs(velocity, 0, block_pairs(reverse));
-        responded += blocks.run_pairs(velocity, 1, block_pairs(reverse));
-        for &(i, j) in &blocks.leftovers {
-            let (i, j) = (i as usize, j as usize);
-            let (head, tail) = velocity.split_at_mut(j);
-            responded += respond_pair(
-                position[i],
-                position[j],
-                &mut head[i],
-                &mut tail[0],
-                mass[i],
-                mass[j],
-                restitution,
-                resting_speed,
-            ) as u64;
-        }
+        responded += blocks.sweep_pairs(velocity, pairs, reverse, respond);
         solve.responses += responded;
         if responded == 0 {
             return solve;
@@ -342,25 +354,8 @@ pub(crate) fn separate<V: Vector>(
     blocks: &Blocks,
     iterations: u32,
 ) {
-    let block_pairs = |block: usize, base: usize, x: &mut [V]| -> u64 {
-        let limit = base + x.len();
-        let mut moved = 0;
-        for &(i, j) in &pairs[blocks.pair_start[block]..blocks.pair_start[block + 1]] {
-            let (i, j) = (i as usize, j as usize);
-            if j >= limit {
-                continue;
-            }
-            let (head, tail) = x.split_at_mut(j - base);
-            moved += separate_pair(
-                &mut head[i - base],
-                &mut tail[0],
-                radius[i],
-                radius[j],
-                mass[i],
-                mass[j],
-            ) as u64;
-        }
-        moved
+    let push_apart = |i: usize, j: usize, xi: &mut V, xj: &mut V| {
+        separate_pair(xi, xj, radius[i], radius[j], mass[i], mass[j])
     };
     let block_planes = |block: usize, base: usize, x: &mut [V]| -> u64 {
         let mut moved = 0;
@@ -373,20 +368,7 @@ pub(crate) fn separate<V: Vector>(
         moved
     };
     for _ in 0..iterations {
-        let mut moved = blocks.run_pairs(position, 0, block_pairs);
-        moved += blocks.run_pairs(position, 1, block_pairs);
-        for &(i, j) in &blocks.leftovers {
-            let (i, j) = (i as usize, j as usize);
-            let (head, tail) = position.split_at_mut(j);
-            moved += separate_pair(
-                &mut head[i],
-                &mut tail[0],
-                radius[i],
-                radius[j],
-                mass[i],
-                mass[j],
-            ) as u64;
-        }
+        let mut moved = blocks.sweep_pairs(position, pairs, false, push_apart);
         moved += blocks.run_blocks(position, block_planes);
         if moved == 0 {
             break;
@@ -402,23 +384,11 @@ pub(crate) fn separate<V: Vector>(
             *x = plane.push_out(*x, r);
         }
     };
-    let block_walls = |block: usize, base: usize, x: &mut [V]| -> u64 {
-        let limit = base + x.len();
-        for &(i, j) in &pairs[blocks.pair_start[block]..blocks.pair_start[block + 1]] {
-            let (i, j) = (i as usize, j as usize);
-            if j < limit {
-                out_of_all_planes(&mut x[i - base], radius[i]);
-                out_of_all_planes(&mut x[j - base], radius[j]);
-            }
-        }
-        0
-    };
-    blocks.run_pairs(position, 0, block_walls);
-    blocks.run_pairs(position, 1, block_walls);
-    for &(i, j) in &blocks.leftovers {
-        out_of_all_planes(&mut position[i as usize], radius[i as usize]);
-        out_of_all_planes(&mut position[j as usize], radius[j as usize]);
-    }
+    blocks.sweep_pairs(position, pairs, false, |i, j, xi, xj| {
+        out_of_all_planes(xi, radius[i]);
+        out_of_all_planes(xj, radius[j]);
+        false
+    });
 }
 
 #[cfg(test)]

@@ -83,17 +83,30 @@ pub fn write_state_csv<V: Vector>(particles: &Particles<V>, out: &mut dyn Write)
         .iter()
         .zip(particles.velocities())
         .zip(particles.radii().iter().zip(particles.masses()));
-    for (id, ((x, v), (r, m))) in rows.enumerate() {
-        write!(out, "{id}")?;
-        for a in 0..V::DIM {
-            write!(out, ",{}", x.get(a))?;
-        }
-        for a in 0..V::DIM {
-            write!(out, ",{}", v.get(a))?;
-        }
-        writeln!(out, ",{r},{m}")?;
+    for (id, ((&x, &v), (&r, &m))) in rows.enumerate() {
+        write_state_row(out, id, x, v, r, m)?;
     }
     Ok(())
+}
+
+/// One state row after whatever the caller has written on the line already:
+/// `id,x..,v..,radius,mass` and the newline (the columns of [`csv_header`]).
+pub fn write_state_row<V: Vector>(
+    out: &mut dyn Write,
+    id: usize,
+    x: V,
+    v: V,
+    radius: f64,
+    mass: f64,
+) -> io::Result<()> {
+    write!(out, "{id}")?;
+    for a in 0..V::DIM {
+        write!(out, ",{}", x.get(a))?;
+    }
+    for a in 0..V::DIM {
+        write!(out, ",{}", v.get(a))?;
+    }
+    writeln!(out, ",{radius},{mass}")
 }
 
 /// Writes the state CSV to `path` atomically.

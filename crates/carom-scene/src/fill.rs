@@ -128,17 +128,7 @@ pub(crate) fn particles<V: Vector>(
             Some(s) if s >= 0 => s as u64,
             Some(s) => return Err(ctx.err(field("seed"), format!("must be >= 0, got {s}"))),
         };
-        let region = match (&f.min, &f.max, domain) {
-            (Some(lo), Some(hi), _) => ctx.aabb::<V>(&format!("fill[{i}]"), lo, hi)?,
-            (None, None, Some(d)) => d,
-            (None, None, None) => {
-                return Err(ctx.err(
-                    format!("fill[{i}]"),
-                    "needs a region: give min and max, or a [domain]",
-                ))
-            }
-            _ => return Err(ctx.err(format!("fill[{i}]"), "give both min and max, or neither")),
-        };
+        let region = regions[i];
         let extent = region.extent();
         if (0..V::DIM).any(|a| extent.get(a) <= 2.0 * radius) {
             return Err(ctx.err(
@@ -357,7 +347,7 @@ impl PlacementGrid {
         let mut hi = [0usize; 3];
         for a in 0..V::DIM {
             let c = x.get(a);
-            let widened = reach * (1.0 + 1e-9) + 4.0 * f64::EPSILON * (c.abs() + reach);
+            let widened = carom_engine::grid::widened_reach(c, reach);
             lo[a] = self.axis_cell(a, c - widened);
             hi[a] = self.axis_cell(a, c + widened);
         }
