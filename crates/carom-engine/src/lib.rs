@@ -14,6 +14,7 @@
 //! | the grid without a box: an unbounded spatial hash (Teschner et al. 2003) | [`hash`] |
 //! | many simultaneous contacts, pushing trapped particles apart | [`solver`] |
 //! | the particle system stepped in time under gravity | [`world`] |
+//! | the same world split over processes (domain decomposition, ghosts) | [`cluster`] |
 //!
 //! ```
 //! use carom_engine::{World, glam::DVec2};
@@ -34,6 +35,7 @@
 
 pub mod broadphase;
 pub mod brute;
+pub mod cluster;
 pub mod diagnostics;
 pub mod domain;
 pub mod error;
@@ -54,4 +56,4 @@ pub use glam;
 pub use particles::Particles;
 pub use plane::Plane;
 pub use vector::Vector;
-pub use world::{World, WorldBuilder, WorldConfig};
+pub use world::{Snapshot, World, WorldBuilder, WorldConfig};

@@ -26,6 +26,11 @@
 //! Inside a block, contacts go in sorted order. So the order of every response is fixed by the
 //! contact set and the slots alone: the same for any thread count, and the same whichever broad
 //! phase found the contacts. Running the blocks serially gives the very same bits.
+//!
+//! The same order runs across processes ([`crate::cluster`]): each process holds a run of whole
+//! blocks, and an [`Exchange`] lends a neighbour's first block for the block pairs that straddle
+//! the border, runs the leftovers in their global order and adds up the counts that decide when
+//! a phase stops. Alone in one process, [`Alone`] does none of that.
 
 use crate::broadphase::Pair;
 use crate::plane::Plane;
@@ -67,13 +72,17 @@ pub(crate) struct Blocks {
     /// The same for plane contacts.
     plane_start: Vec<usize>,
     /// Contacts whose `j` is beyond the next block, in sorted order.
-    leftovers: Vec<Pair>,
+    pub(crate) leftovers: Vec<Pair>,
+    /// Global index of block 0 (non-zero when this process holds a later run of blocks): the
+    /// even/odd split goes by global block index.
+    first_block: usize,
     /// Run blocks on the thread pool (otherwise serially; same result).
     parallel: bool,
 }
 
 impl Blocks {
-    /// Splits this step's contacts; `pairs` and `plane_contacts` must be sorted.
+    /// Splits this step's contacts; `pairs` and `plane_contacts` must be sorted. Slot 0 here
+    /// is the first slot of global block `first_block`.
     pub fn plan(
         &mut self,
         n: usize,
@@ -81,9 +90,11 @@ impl Blocks {
         pairs: &[Pair],
         plane_contacts: &[PlaneContact],
         parallel: bool,
+        first_block: usize,
     ) {
         self.size = size.max(1);
         self.parallel = parallel;
+        self.first_block = first_block;
         let count = n.div_ceil(self.size).max(1);
         let size = self.size;
         self.pair_start.clear();
@@ -106,14 +117,15 @@ impl Blocks {
         }
     }
 
-    /// Runs `work(block, first_slot, slots)` on every block of one parity, each given the
-    /// slots of itself and the next block, and adds up what they return.
-    fn run_pairs<T, F>(&self, data: &mut [T], parity: usize, work: F) -> u64
+    /// Runs `work(block, first_slot, slots)` on every block of one global parity, each given
+    /// the slots of itself and the next block, and adds up what they return.
+    fn run_pairs<T, F>(&self, data: &mut [T], global_parity: usize, work: F) -> u64
     where
         T: Send,
         F: Fn(usize, usize, &mut [T]) -> u64 + Sync,
     {
         let size = self.size;
+        let parity = (global_parity + self.first_block) % 2;
         let skip = (parity * size).min(data.len());
         let rest = &mut data[skip..];
         let task = |(k, chunk): (usize, &mut [T])| work(parity + 2 * k, skip + 2 * k * size, chunk);
@@ -125,15 +137,26 @@ impl Blocks {
     }
 
     /// One sweep over every pair, in the fixed order: the even blocks, then the odd blocks (each
-    /// set in parallel), then the leftovers one after another. `visit(i, j, &mut data[i],
-    /// &mut data[j])` says whether it changed anything; the sweep returns how many did.
-    /// `reverse` walks each block's pairs backwards (the leftovers always go forwards).
-    fn sweep_pairs<T, F>(&self, data: &mut [T], pairs: &[Pair], reverse: bool, visit: F) -> u64
+    /// set in parallel), then the leftovers one after another. `rule(body(i), body(j),
+    /// &mut data[i], &mut data[j])` says whether it changed anything. Returns how many did, as
+    /// (this process's blocks, all leftovers). `reverse` walks each block's pairs backwards (the
+    /// leftovers always go forwards).
+    fn sweep_pairs<V, E, B, R>(
+        &self,
+        exchange: &mut E,
+        data: &mut [V],
+        pairs: &[Pair],
+        reverse: bool,
+        body: B,
+        rule: R,
+    ) -> (u64, u64)
     where
-        T: Send,
-        F: Fn(usize, usize, &mut T, &mut T) -> bool + Sync,
+        V: Vector,
+        E: Exchange<V>,
+        B: Fn(usize) -> Body<V> + Sync,
+        R: Fn(&Body<V>, &Body<V>, &mut V, &mut V) -> bool + Sync,
     {
-        let in_block = |block: usize, base: usize, slots: &mut [T]| -> u64 {
+        let in_block = |block: usize, base: usize, slots: &mut [V]| -> u64 {
             let limit = base + slots.len();
             let mut changed = 0;
             let mut one = |&(i, j): &Pair| {
@@ -141,7 +164,7 @@ impl Blocks {
                 if j < limit {
                     // (the others are leftovers)
                     let (a, b) = pair_mut(slots, i - base, j - base);
-                    changed += visit(i, j, a, b) as u64;
+                    changed += rule(&body(i), &body(j), a, b) as u64;
                 }
             };
             let mine = &pairs[self.pair_start[block]..self.pair_start[block + 1]];
@@ -152,14 +175,14 @@ impl Blocks {
             }
             changed
         };
-        let mut changed = self.run_pairs(data, 0, in_block);
-        changed += self.run_pairs(data, 1, in_block);
-        for &(i, j) in &self.leftovers {
-            let (i, j) = (i as usize, j as usize);
-            let (a, b) = pair_mut(data, i, j);
-            changed += visit(i, j, a, b) as u64;
+        let mut changed = 0;
+        for parity in 0..2 {
+            exchange.before_blocks(parity, data);
+            changed += self.run_pairs(data, parity, in_block);
+            exchange.after_blocks(parity, data);
         }
-        changed
+        let leftovers = exchange.leftovers(self, data, &body, &rule);
+        (changed, leftovers)
     }
 
     /// Runs `work(block, first_slot, slots)` on every block with its own slots.
@@ -180,9 +203,64 @@ impl Blocks {
 
 /// `&mut s[i]` and `&mut s[j]` at once, for `i < j`.
 #[inline]
-fn pair_mut<T>(s: &mut [T], i: usize, j: usize) -> (&mut T, &mut T) {
+pub(crate) fn pair_mut<T>(s: &mut [T], i: usize, j: usize) -> (&mut T, &mut T) {
     let (head, tail) = s.split_at_mut(j);
     (&mut head[i], &mut tail[0])
+}
+
+/// The read-only facts of one particle that a pair rule reads.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct Body<V> {
+    /// Centre (in the position phase, where the positions are what changes, unused).
+    pub position: V,
+    /// Radius, > 0.
+    pub radius: f64,
+    /// Mass, > 0.
+    pub mass: f64,
+}
+
+/// What one sweep needs from beyond this process's slots (see the module notes). Every method
+/// is collective across processes: all of them make the same calls in the same order.
+pub(crate) trait Exchange<V: Vector> {
+    /// Before the blocks of global parity `parity` run on `data`.
+    fn before_blocks(&mut self, parity: usize, data: &mut [V]);
+    /// After the blocks of global parity `parity` ran on `data`.
+    fn after_blocks(&mut self, parity: usize, data: &mut [V]);
+    /// Runs every leftover pair (of every process) in global order and returns how many
+    /// changed anything: the same number on every process.
+    fn leftovers<B, R>(&mut self, blocks: &Blocks, data: &mut [V], body: &B, rule: &R) -> u64
+    where
+        B: Fn(usize) -> Body<V>,
+        R: Fn(&Body<V>, &Body<V>, &mut V, &mut V) -> bool;
+    /// `local` added up over every process.
+    fn total(&mut self, local: u64) -> u64;
+}
+
+/// One process holding every slot: nothing to exchange.
+pub(crate) struct Alone;
+
+impl<V: Vector> Exchange<V> for Alone {
+    #[inline]
+    fn before_blocks(&mut self, _parity: usize, _data: &mut [V]) {}
+    #[inline]
+    fn after_blocks(&mut self, _parity: usize, _data: &mut [V]) {}
+    fn leftovers<B, R>(&mut self, blocks: &Blocks, data: &mut [V], body: &B, rule: &R) -> u64
+    where
+        B: Fn(usize) -> Body<V>,
+        R: Fn(&Body<V>, &Body<V>, &mut V, &mut V) -> bool,
+    {
+        let mut changed = 0;
+        for &(i, j) in &blocks.leftovers {
+            let (i, j) = (i as usize, j as usize);
+            let (a, b) = pair_mut(data, i, j);
+            changed += rule(&body(i), &body(j), a, b) as u64;
+        }
+        changed
+    }
+    #[inline]
+    fn total(&mut self, local: u64) -> u64 {
+        local
+    }
 }
 
 /// Read-only particle data the phases need alongside the array they change.
@@ -264,7 +342,8 @@ fn respond_plane<V: Vector>(
 
 /// Velocity phase. `restitution` is the particle-particle `k`; planes carry their own.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn solve_velocities<V: Vector>(
+pub(crate) fn solve_velocities<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
     bodies: &Bodies<V>,
     velocity: &mut [V],
     pairs: &[Pair],
@@ -280,14 +359,19 @@ pub(crate) fn solve_velocities<V: Vector>(
         radius,
         mass,
     } = *bodies;
-    let respond = |i: usize, j: usize, vi: &mut V, vj: &mut V| {
+    let body = |i: usize| Body {
+        position: position[i],
+        radius: radius[i],
+        mass: mass[i],
+    };
+    let respond = |a: &Body<V>, b: &Body<V>, vi: &mut V, vj: &mut V| {
         respond_pair(
-            position[i],
-            position[j],
+            a.position,
+            b.position,
             vi,
             vj,
-            mass[i],
-            mass[j],
+            a.mass,
+            b.mass,
             restitution,
             resting_speed,
         )
@@ -311,11 +395,13 @@ pub(crate) fn solve_velocities<V: Vector>(
     while solve.iterations < max_iterations.max(1) {
         solve.iterations += 1;
         // Planes first: a floor's support then travels up a stack within one sweep.
-        let mut responded = blocks.run_blocks(velocity, block_planes);
+        let on_planes = blocks.run_blocks(velocity, block_planes);
         // Alternate the direction within each block (symmetric Gauss-Seidel): support then
         // spreads both ways through a stack instead of one layer per sweep.
         let reverse = solve.iterations % 2 == 0;
-        responded += blocks.sweep_pairs(velocity, pairs, reverse, respond);
+        let (in_blocks, leftovers) =
+            blocks.sweep_pairs(exchange, velocity, pairs, reverse, body, respond);
+        let responded = exchange.total(on_planes + in_blocks) + leftovers;
         solve.responses += responded;
         if responded == 0 {
             return solve;
@@ -344,7 +430,8 @@ fn separate_pair<V: Vector>(xi: &mut V, xj: &mut V, ri: f64, rj: f64, mi: f64, m
 /// Position phase: `iterations` sweeps over the pairs and plane contacts (in the same order
 /// as the velocity phase), then every particle of a pair against every plane.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn separate<V: Vector>(
+pub(crate) fn separate<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
     position: &mut [V],
     radius: &[f64],
     mass: &[f64],
@@ -354,8 +441,14 @@ pub(crate) fn separate<V: Vector>(
     blocks: &Blocks,
     iterations: u32,
 ) {
-    let push_apart = |i: usize, j: usize, xi: &mut V, xj: &mut V| {
-        separate_pair(xi, xj, radius[i], radius[j], mass[i], mass[j])
+    // The positions are what changes here, so a body's own position is not read.
+    let body = |i: usize| Body {
+        position: V::ZERO,
+        radius: radius[i],
+        mass: mass[i],
+    };
+    let push_apart = |a: &Body<V>, b: &Body<V>, xi: &mut V, xj: &mut V| {
+        separate_pair(xi, xj, a.radius, b.radius, a.mass, b.mass)
     };
     let block_planes = |block: usize, base: usize, x: &mut [V]| -> u64 {
         let mut moved = 0;
@@ -368,9 +461,10 @@ pub(crate) fn separate<V: Vector>(
         moved
     };
     for _ in 0..iterations {
-        let mut moved = blocks.sweep_pairs(position, pairs, false, push_apart);
-        moved += blocks.run_blocks(position, block_planes);
-        if moved == 0 {
+        let (in_blocks, leftovers) =
+            blocks.sweep_pairs(exchange, position, pairs, false, body, push_apart);
+        let on_planes = blocks.run_blocks(position, block_planes);
+        if exchange.total(in_blocks + on_planes) + leftovers == 0 {
             break;
         }
     }
@@ -384,9 +478,9 @@ pub(crate) fn separate<V: Vector>(
             *x = plane.push_out(*x, r);
         }
     };
-    blocks.sweep_pairs(position, pairs, false, |i, j, xi, xj| {
-        out_of_all_planes(xi, radius[i]);
-        out_of_all_planes(xj, radius[j]);
+    blocks.sweep_pairs(exchange, position, pairs, false, body, |a, b, xi, xj| {
+        out_of_all_planes(xi, a.radius);
+        out_of_all_planes(xj, b.radius);
         false
     });
 }
@@ -406,7 +500,7 @@ mod tests {
 
     fn two(p1: DVec2, v1: DVec2, p2: DVec2, v2: DVec2) -> Two {
         let mut blocks = Blocks::default();
-        blocks.plan(2, 1024, &[(0, 1)], &[], false);
+        blocks.plan(2, 1024, &[(0, 1)], &[], false, 0);
         Two {
             position: vec![p1, p2],
             velocity: vec![v1, v2],
@@ -424,6 +518,7 @@ mod tests {
                 mass: &self.mass,
             };
             solve_velocities(
+                &mut Alone,
                 &bodies,
                 &mut self.velocity,
                 &[(0, 1)],
@@ -437,6 +532,7 @@ mod tests {
         }
         fn separate(&mut self, iterations: u32) {
             separate(
+                &mut Alone,
                 &mut self.position,
                 &self.radius,
                 &self.mass,

@@ -21,7 +21,7 @@ use crate::grid::{bounding_box, Grid, GridLayout};
 use crate::hash::SpatialHash;
 use crate::particles::Particles;
 use crate::plane::{check_restitution, Plane};
-use crate::solver::{self, Blocks, Bodies, PlaneContact};
+use crate::solver::{self, Alone, Blocks, Bodies, PlaneContact};
 use crate::vector::Vector;
 use rayon::prelude::*;
 use std::cell::OnceCell;
@@ -196,13 +196,7 @@ impl<V: Vector> WorldBuilder<V> {
             let domain = config.domain.ok_or(EngineError::EmptyDomain)?;
             planes.extend(domain.walls(k)?);
         }
-        let broad_phase: Box<dyn BroadPhase<V>> = match config.broad_phase {
-            BroadPhaseKind::Brute => Box::new(BruteForce::new()),
-            BroadPhaseKind::Grid => {
-                Box::new(Grid::new(config.domain, config.grid_cells.as_deref())?)
-            }
-            BroadPhaseKind::Hash => Box::new(SpatialHash::new()),
-        };
+        let broad_phase = new_broad_phase(&config)?;
         let n = self.particles.len();
         let (steps, ids) = match self.resume {
             None => (0, (0..n as u32).collect()),
@@ -256,6 +250,38 @@ impl<V: Vector> WorldBuilder<V> {
     }
 }
 
+/// The broad phase `config` asks for.
+pub(crate) fn new_broad_phase<V: Vector>(
+    config: &WorldConfig<V>,
+) -> Result<Box<dyn BroadPhase<V>>, EngineError> {
+    Ok(match config.broad_phase {
+        BroadPhaseKind::Brute => Box::new(BruteForce::new()),
+        BroadPhaseKind::Grid => Box::new(Grid::new(config.domain, config.grid_cells.as_deref())?),
+        BroadPhaseKind::Hash => Box::new(SpatialHash::new()),
+    })
+}
+
+/// The grid the spatial sort orders `n` particles by: over `bounds` (the domain, or the
+/// particles' bounding box), cells one largest diameter wide, at most one per particle (finer
+/// would not sort any better, only cost memory). Derived from the particles alone, never from
+/// the broad phase or its cell count, so that brute force and every grid size see the same
+/// storage order and the same bits.
+pub(crate) fn sort_layout<V: Vector>(bounds: &Aabb<V>, max_radius: f64, n: usize) -> GridLayout {
+    GridLayout::fit(bounds, max_radius, None, (n as f64).max(64.0))
+}
+
+/// A whole world's state at one step, in a form that can travel: what
+/// [`crate::cluster::Subdomain::gather`] collects and [`World::restore`] takes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Snapshot<V> {
+    /// Steps taken.
+    pub steps_taken: u64,
+    /// Ids by storage slot (see [`World::storage_order`]).
+    pub storage_order: Vec<u32>,
+    /// Every particle, by id.
+    pub particles: Particles<V>,
+}
+
 fn check_dt(dt: f64) -> Result<(), EngineError> {
     if dt.is_finite() && dt > 0.0 {
         Ok(())
@@ -269,9 +295,9 @@ pub struct World<V: Vector> {
     config: WorldConfig<V>,
     planes: Vec<Plane<V>>,
     /// The particles in storage order (sorted along space every few steps).
-    store: Particles<V>,
+    pub(crate) store: Particles<V>,
     /// Storage slot -> id.
-    ids: Vec<u32>,
+    pub(crate) ids: Vec<u32>,
     /// Id -> storage slot.
     slots: Vec<u32>,
     /// Id-ordered copy, made when asked for and dropped by the next step.
@@ -283,7 +309,7 @@ pub struct World<V: Vector> {
     plane_contacts: Vec<PlaneContact>,
     plane_buffers: Vec<Vec<PlaneContact>>,
     blocks: Blocks,
-    block_size: usize,
+    pub(crate) block_size: usize,
     sorter: Sorter,
     steps: u64,
 }
@@ -302,7 +328,7 @@ impl<V: Vector> std::fmt::Debug for World<V> {
 /// Storage slots per solver block for `n` particles in `dim` dimensions: a few rows (2D) or
 /// layers (3D) of a spatially sorted box, so that a contact seldom reaches past the next block.
 /// A function of `n` alone, so that the contact order is too (and a resumed run matches).
-fn block_size(n: usize, dim: usize) -> usize {
+pub(crate) fn block_size(n: usize, dim: usize) -> usize {
     let slab = (n as f64).powf((dim as f64 - 1.0) / dim as f64);
     let factor = if dim == 2 { 8.0 } else { 6.0 };
     ((factor * slab) as usize)
@@ -333,10 +359,7 @@ impl Sorter {
             return;
         }
         let bounds = domain.unwrap_or_else(|| bounding_box(&store.position));
-        // Derived from the particles alone (never from the broad phase or its cell count), so
-        // that brute force and every grid size see the same storage order and the same bits.
-        // At most one cell per particle: finer would not sort any better, only cost memory.
-        let layout = GridLayout::fit(&bounds, store.max_radius(), None, (n as f64).max(64.0));
+        let layout = sort_layout(&bounds, store.max_radius(), n);
         self.keys.resize(n, 0);
         let key = |(k, &x): (&mut u32, &V)| *k = layout.linear(layout.cell_coords(x)) as u32;
         if n >= PARALLEL_MIN {
@@ -461,6 +484,7 @@ impl<V: Vector> World<V> {
             &self.pairs,
             &self.plane_contacts,
             parallel,
+            0,
         );
 
         let resting_speed = self
@@ -474,6 +498,7 @@ impl<V: Vector> World<V> {
             mass,
         } = &mut self.store;
         let solve = solver::solve_velocities(
+            &mut Alone,
             &Bodies {
                 position,
                 radius,
@@ -489,6 +514,7 @@ impl<V: Vector> World<V> {
             self.config.velocity_iterations,
         );
         solver::separate(
+            &mut Alone,
             position,
             radius,
             mass,
@@ -605,6 +631,41 @@ impl<V: Vector> World<V> {
     /// The settings.
     pub fn config(&self) -> &WorldConfig<V> {
         &self.config
+    }
+
+    /// Replaces the state with `snapshot` (same particle count; the settings and planes stay):
+    /// stepping on then gives the very bits the run the snapshot came from gives.
+    pub fn restore(&mut self, snapshot: Snapshot<V>) -> Result<(), EngineError> {
+        let Snapshot {
+            steps_taken,
+            storage_order,
+            particles,
+        } = snapshot;
+        let n = self.store.len();
+        if particles.len() != n || storage_order.len() != n {
+            return Err(EngineError::StorageOrder);
+        }
+        let mut slots = vec![u32::MAX; n];
+        for (slot, &id) in storage_order.iter().enumerate() {
+            match slots.get_mut(id as usize) {
+                Some(s) if *s == u32::MAX => *s = slot as u32,
+                _ => return Err(EngineError::StorageOrder),
+            }
+        }
+        for (slot, &id) in storage_order.iter().enumerate() {
+            let id = id as usize;
+            self.store.position[slot] = particles.position[id];
+            self.store.velocity[slot] = particles.velocity[id];
+            self.store.radius[slot] = particles.radius[id];
+            self.store.mass[slot] = particles.mass[id];
+        }
+        self.ids = storage_order;
+        self.slots = slots;
+        self.steps = steps_taken;
+        self.by_id = OnceCell::from(particles);
+        self.contacts_by_id.take();
+        self.pairs.clear();
+        Ok(())
     }
 
     /// Ids by storage slot: what [`WorldBuilder::resume`] needs to continue this run exactly.

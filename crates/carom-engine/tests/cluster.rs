@@ -1,0 +1,190 @@
+//! The decomposition over ranks gives the very bits of one world: ranks run as threads here
+//! (the `carom` binary's MPI runs are tested in carom-cli).
+
+use carom_engine::cluster::{Subdomain, ThreadTransport, TrafficKind};
+use carom_engine::glam::{DVec2, DVec3};
+use carom_engine::{Aabb, BroadPhaseKind, Snapshot, Vector, World, WorldBuilder};
+
+/// A small deterministic generator (PCG constants, top 53 bits).
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+    fn vector<V: Vector>(&mut self, lo: f64, hi: f64) -> V {
+        let c = [self.range(lo, hi), self.range(lo, hi), self.range(lo, hi)];
+        V::from_slice(&c)
+    }
+}
+
+/// `n` particles in `(-half, half)^DIM`, every fifth of radius `big`, the rest radius 1.
+fn scene<V: Vector>(n: usize, half: f64, big: f64, seed: u64) -> WorldBuilder<V> {
+    let mut rng = Lcg(seed);
+    let mut b = World::<V>::builder();
+    for i in 0..n {
+        let r = if i % 5 == 0 { big } else { 1.0 };
+        let x = rng.vector(-half + r, half - r);
+        let v = rng.vector(-20.0, 20.0);
+        b = b.particle(x, v, r, rng.range(0.5, 4.0));
+    }
+    b
+}
+
+/// Walled box under gravity, particle k = 0.5 (the lecture's first demo, denser).
+fn walled<V: Vector>(n: usize, half: f64, big: f64) -> WorldBuilder<V> {
+    scene(n, half, big, 7)
+        .dt(0.01)
+        .gravity(V::from_slice(&[0.0, -9.81, 0.0]))
+        .restitution(0.5)
+        .domain(Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap())
+        .walls(0.8)
+}
+
+/// Runs `steps` steps on `ranks` threads; returns rank 0's gathered state and the bytes rank 0
+/// sent.
+fn split_run<V: Vector>(
+    build: impl Fn() -> World<V> + Sync,
+    ranks: usize,
+    steps: u64,
+) -> (Snapshot<V>, u64) {
+    std::thread::scope(|s| {
+        let handles: Vec<_> = ThreadTransport::group(ranks)
+            .into_iter()
+            .enumerate()
+            .map(|(rank, mut t)| {
+                let build = &build;
+                s.spawn(move || {
+                    let world = build();
+                    let mut sub = Subdomain::new(&world, rank, ranks).unwrap();
+                    for _ in 0..steps {
+                        sub.step(&mut t);
+                    }
+                    let snapshot = sub.gather(&mut t);
+                    (snapshot, sub.traffic().total_bytes())
+                })
+            })
+            .collect();
+        let mut results: Vec<_> = handles.into_iter().map(|h| h.join().unwrap()).collect();
+        let (snapshot, bytes) = results.remove(0);
+        assert!(
+            results.iter().all(|(s, _)| s.is_none()),
+            "only rank 0 gathers"
+        );
+        (snapshot.expect("rank 0 gathers"), bytes)
+    })
+}
+
+fn check_identical<V: Vector>(build: impl Fn() -> World<V> + Sync, steps: u64, ranks: &[usize]) {
+    let mut whole = build();
+    for _ in 0..steps {
+        whole.step();
+    }
+    for &p in ranks {
+        let (snapshot, bytes) = split_run(&build, p, steps);
+        assert_eq!(snapshot.steps_taken, steps);
+        assert_eq!(
+            snapshot.storage_order,
+            whole.storage_order(),
+            "{p} ranks: order"
+        );
+        let mut rebuilt = build();
+        rebuilt.restore(snapshot).unwrap();
+        assert_eq!(
+            rebuilt.state_hash(),
+            whole.state_hash(),
+            "{p} ranks differ from one world after {steps} steps"
+        );
+        if p > 1 {
+            assert!(bytes > 0, "{p} ranks exchanged nothing");
+        }
+    }
+}
+
+#[test]
+fn walled_2d_pile_is_bit_identical_on_1_to_4_ranks() {
+    // 5000 particles: five solver blocks, so four ranks all hold some; radii 1 and 3 make
+    // contacts that reach past the next block (leftovers).
+    check_identical(
+        || walled::<DVec2>(5000, 100.0, 3.0).build().unwrap(),
+        70,
+        &[1, 2, 3, 4],
+    );
+}
+
+#[test]
+fn open_3d_cloud_with_the_hash_is_bit_identical() {
+    let build = || {
+        scene::<DVec3>(6000, 30.0, 2.0, 11)
+            .dt(0.005)
+            .broad_phase(BroadPhaseKind::Hash)
+            .build()
+            .unwrap()
+    };
+    check_identical(build, 40, &[2, 4]);
+}
+
+#[test]
+fn more_ranks_than_blocks_still_agrees() {
+    check_identical(
+        || walled::<DVec2>(300, 30.0, 2.0).build().unwrap(),
+        40,
+        &[3],
+    );
+}
+
+#[test]
+fn restored_world_continues_like_the_original() {
+    let build = || walled::<DVec2>(2000, 60.0, 3.0).build().unwrap();
+    let mut whole = build();
+    for _ in 0..45 {
+        whole.step();
+    }
+    let (snapshot, _) = split_run(build, 2, 45);
+    let mut continued = build();
+    continued.restore(snapshot).unwrap();
+    for _ in 0..30 {
+        whole.step();
+        continued.step();
+    }
+    assert_eq!(continued.state_hash(), whole.state_hash());
+}
+
+#[test]
+fn traffic_is_counted_by_kind() {
+    let build = || walled::<DVec2>(5000, 100.0, 3.0).build().unwrap();
+    std::thread::scope(|s| {
+        let handles: Vec<_> = ThreadTransport::group(2)
+            .into_iter()
+            .enumerate()
+            .map(|(rank, mut t)| {
+                s.spawn(move || {
+                    let mut sub = Subdomain::new(&build(), rank, 2).unwrap();
+                    for _ in 0..10 {
+                        sub.step(&mut t);
+                    }
+                    sub.traffic().clone()
+                })
+            })
+            .collect();
+        for h in handles {
+            let t = h.join().unwrap();
+            for kind in [
+                TrafficKind::Halo,
+                TrafficKind::Ghosts,
+                TrafficKind::Migration,
+            ] {
+                assert!(t.bytes(kind) > 0, "{} sent nothing", kind.name());
+            }
+            assert_eq!(t.bytes(TrafficKind::Gather), 0);
+            assert!(t.total_collectives() >= 10);
+        }
+    });
+}
