@@ -8,8 +8,11 @@
 //! - Checkpoint (`--checkpoint PATH --checkpoint-every K`): the complete state, written
 //!   atomically (temporary, fsync, rename); `carom resume PATH` continues bit for bit.
 //! - Ctrl-C or SIGTERM: the current step finishes, a checkpoint is written (if asked for), the
-//!   trajectory is flushed, and carom exits with status 130. A second one exits at once,
-//!   removing any temporary still being written, so no partial file is left.
+//!   trajectory is flushed, and carom exits with status 130. A second one exits at once, also
+//!   with status 130, and leaves no partial file: the temporaries of atomic writes under way
+//!   are removed (their targets keep their previous, whole contents), a CSV trajectory is cut
+//!   back to its last whole frame, and the writing thread is stopped before it can start or
+//!   finish another file (see [`write_whole`]).
 
 use crate::run::{check_output_path, Failure};
 use carom_engine::{Vector, World};
@@ -18,6 +21,7 @@ use indicatif::ProgressBar;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 use std::time::Instant;
 
 pub mod soak;
@@ -25,17 +29,130 @@ pub mod vtk;
 
 static STOP: AtomicBool = AtomicBool::new(false);
 
-/// Exit status after an interrupt (128 + SIGINT).
+/// Set by a second interrupt, just before the process exits: from then on no file may be
+/// started, finished or appended to.
+static EXITING: AtomicBool = AtomicBool::new(false);
+
+/// Exit status after an interrupt (128 + SIGINT), for the graceful stop and the immediate exit.
 pub const INTERRUPTED: u8 = 130;
 
 /// Routes Ctrl-C and SIGTERM to a graceful stop (first) or an immediate exit (second).
 pub fn install_interrupt_handler() {
     let _ = ctrlc::set_handler(|| {
         if STOP.swap(true, Ordering::SeqCst) {
-            carom_output::remove_in_flight_temporaries();
-            std::process::exit(INTERRUPTED as i32);
+            quit_at_once();
         }
+        eprintln!(
+            "carom: interrupted: stopping after this step and writing what was asked for \
+             (interrupt again to quit at once)"
+        );
     });
+}
+
+/// The second interrupt: leave only whole files and exit with [`INTERRUPTED`].
+fn quit_at_once() -> ! {
+    EXITING.store(true, Ordering::SeqCst);
+    // A write that registered its temporary before this loses it (and then fails to rename it,
+    // or halts in `write_whole`); one that starts after this halts before writing a byte.
+    carom_output::remove_in_flight_temporaries();
+    // Held until the exit, so the trajectory gets no further byte.
+    let mut csv = csv_cut();
+    if let Some(cut) = csv.as_mut() {
+        let _ = if cut.whole == 0 {
+            std::fs::remove_file(&cut.path)
+        } else {
+            cut.file.set_len(cut.whole)
+        };
+    }
+    eprintln!("carom: interrupted again: quitting at once; only whole files are left");
+    std::process::exit(INTERRUPTED as i32);
+}
+
+/// Stops the calling thread for good once a second interrupt is exiting the process, after
+/// removing the temporary it may have registered; returns at once otherwise.
+fn halt_if_exiting() {
+    if EXITING.load(Ordering::SeqCst) {
+        carom_output::remove_in_flight_temporaries();
+        loop {
+            std::thread::park();
+        }
+    }
+}
+
+/// [`carom_output::write_atomic`] that a second interrupt cannot leave half done: the temporary
+/// is registered before `write` runs, so either the exiting handler removes it (and the rename
+/// fails), or the writer sees the exit coming and halts, removing it itself. A write the exit
+/// made fail never reports its error: the thread halts until the process is gone.
+pub(crate) fn write_whole<F>(path: &Path, write: F) -> std::io::Result<()>
+where
+    F: FnOnce(&mut dyn Write) -> std::io::Result<()>,
+{
+    let result = carom_output::write_atomic(path, |w| {
+        halt_if_exiting();
+        write(w)
+    });
+    if result.is_err() {
+        halt_if_exiting();
+    }
+    result
+}
+
+/// The CSV trajectory's file and the length of its whole frames, for a second interrupt to cut
+/// it back to.
+struct CsvCut {
+    path: PathBuf,
+    file: std::fs::File,
+    /// Bytes up to the end of the last whole frame (0: none yet, and the file is this run's).
+    whole: u64,
+}
+
+fn csv_cut() -> std::sync::MutexGuard<'static, Option<CsvCut>> {
+    static CSV: Mutex<Option<CsvCut>> = Mutex::new(None);
+    CSV.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// The CSV trajectory's file under its `BufWriter`: every write holds the [`csv_cut`] lock and
+/// none starts once the process is exiting, so the cut sees no write half done.
+struct CsvFile {
+    file: std::fs::File,
+    /// Length of the file after the last byte written.
+    end: u64,
+}
+
+impl CsvFile {
+    fn open(path: &Path, file: std::fs::File) -> std::io::Result<Self> {
+        let end = file.metadata()?.len();
+        *csv_cut() = Some(CsvCut {
+            path: path.to_path_buf(),
+            file: file.try_clone()?,
+            whole: end,
+        });
+        Ok(Self { file, end })
+    }
+
+    /// Records that everything written so far (and flushed) ends in a whole frame.
+    fn mark_whole(&self) {
+        if let Some(cut) = csv_cut().as_mut() {
+            cut.whole = self.end;
+        }
+    }
+}
+
+impl Write for CsvFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let guard = csv_cut();
+        if EXITING.load(Ordering::SeqCst) {
+            drop(guard);
+            halt_if_exiting();
+        }
+        let n = self.file.write(buf)?;
+        self.end += n as u64;
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
 }
 
 /// True once Ctrl-C or SIGTERM asked the run to stop.
@@ -110,7 +227,7 @@ fn write_frame<V: Vector>(out: &mut impl Write, world: &World<V>) -> std::io::Re
 
 /// A trajectory being written: CSV (appended, flushed frame by frame) or a VTK series.
 enum Trajectory {
-    Csv(BufWriter<std::fs::File>),
+    Csv(BufWriter<CsvFile>),
     Vtk(vtk::Series),
 }
 
@@ -136,17 +253,22 @@ impl Trajectory {
             .truncate(fresh)
             .open(path)
             .map_err(|e| Failure::runtime(format!("cannot open {}: {e}", path.display())))?;
-        let mut w = BufWriter::with_capacity(1 << 16, file);
+        let mut w = BufWriter::with_capacity(1 << 16, CsvFile::open(path, file).map_err(io)?);
         if fresh {
             writeln!(w, "{}", trajectory_header(V::DIM)).map_err(io)?;
             write_frame(&mut w, world).map_err(io)?;
+            w.get_ref().mark_whole();
         }
         Ok(Trajectory::Csv(w))
     }
 
     fn frame<V: Vector>(&mut self, world: &World<V>) -> std::io::Result<()> {
         match self {
-            Trajectory::Csv(w) => write_frame(w, world),
+            Trajectory::Csv(w) => {
+                write_frame(w, world)?;
+                w.get_ref().mark_whole();
+                Ok(())
+            }
             Trajectory::Vtk(series) => series.frame(world),
         }
     }
@@ -179,7 +301,7 @@ pub fn save_checkpoint<V: Vector>(
         cp.radii.push(r);
         cp.masses.push(m);
     }
-    carom_output::write_atomic(path, |w| cp.write_to(w))
+    write_whole(path, |w| cp.write_to(w))
         .map_err(|e| Failure::runtime(format!("cannot write checkpoint {}: {e}", path.display())))
 }
 

@@ -1,5 +1,5 @@
 //! VTK trajectories for ParaView: `--trajectory PATH.pvd` writes one XML PolyData file (`.vtp`)
-//! per frame into the folder `PATH` without `.pvd` (e.g. `run.pvd` -> `run/run_000050.vtp`),
+//! per frame into the folder `PATH` without `.pvd` (e.g. `run.pvd` -> `run/run_000000050.vtp`),
 //! plus the `.pvd` collection listing every frame with its time.
 //!
 //! Each `.vtp` is written atomically, and the `.pvd` is rewritten atomically after it, so the
@@ -70,7 +70,7 @@ impl Series {
         let name = format!("{}_{step:09}.vtp", self.stem);
         let path = self.folder.join(&name);
         let vtk = polydata(world);
-        carom_output::write_atomic(&path, |w| {
+        crate::session::write_whole(&path, |w| {
             vtk.write_xml(&mut *w)
                 .map_err(|e| io::Error::other(format!("{e:?}")))
         })?;
@@ -86,7 +86,7 @@ impl Series {
             file: format!("{folder_name}/{name}"),
         });
         let entries = &self.entries;
-        carom_output::write_atomic(&self.pvd, |w| write_pvd(entries, w))
+        crate::session::write_whole(&self.pvd, |w| write_pvd(entries, w))
     }
 }
 
