@@ -182,6 +182,12 @@ pub struct Subdomain<V: Vector> {
     search_radius: Vec<f64>,
     /// Global slot of each ghost.
     ghost_slot: Vec<u32>,
+    /// Borrowed slots (offsets into the next rank's first block) this step's contacts touch.
+    needed: Vec<u32>,
+    /// Offsets into the own first block that the previous rank's contacts touch this step.
+    lent: Vec<u32>,
+    /// Whether any rank borrows anything in the sweeps of parity 0 and 1 this step.
+    lending: [bool; 2],
     found: Vec<Pair>,
     /// This step's contacts whose lower slot is own, as slots relative to `first_slot`.
     pairs: Vec<Pair>,
@@ -239,6 +245,9 @@ impl<V: Vector> Subdomain<V> {
             search_position: Vec::new(),
             search_radius: Vec::new(),
             ghost_slot: Vec::new(),
+            needed: Vec::new(),
+            lent: Vec::new(),
+            lending: [false; 2],
             found: Vec::new(),
             pairs: Vec::new(),
             plane_contacts: Vec::new(),
@@ -344,8 +353,8 @@ impl<V: Vector> Subdomain<V> {
             *v += dv;
             *x += *v * dt;
         }
-        self.borrow_halo_bodies(link);
         self.find_contacts(link);
+        self.agree_on_borrowing(link);
         let parallel = self.partition.slots() >= PARALLEL_MIN;
         self.blocks.plan(
             self.own + self.halo,
@@ -366,7 +375,9 @@ impl<V: Vector> Subdomain<V> {
             rank: self.rank,
             first_slot: self.first_slot,
             own: self.own,
-            halo: self.halo,
+            needed: &self.needed,
+            lent: &self.lent,
+            lending: self.lending,
             leftovers: &leftovers,
         };
         let solve = solver::solve_velocities(
@@ -486,25 +497,34 @@ impl<V: Vector> Subdomain<V> {
         }
     }
 
-    /// Fills the borrowed block's positions, radii and masses (velocities travel with each
-    /// sweep instead: they change during the step).
-    fn borrow_halo_bodies<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
-        let mut outgoing: Vec<Writer> = (0..link.ranks()).map(|_| Writer::default()).collect();
-        if let Some(borrower) = borrower(&self.partition, self.rank, None) {
-            let w = &mut outgoing[borrower];
-            for s in 0..self.own.min(self.partition.block()) {
-                w.vector(self.position[s])
-                    .f64(self.radius[s])
-                    .f64(self.mass[s]);
-            }
+    /// Tells the next rank which of its first block's particles this step's contacts touch
+    /// (only those travel in the sweeps), and learns which of its own the previous rank needs.
+    fn agree_on_borrowing<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
+        let (own, halo) = (self.own as u32, self.halo as u32);
+        self.needed.clear();
+        self.needed.extend(
+            self.pairs
+                .iter()
+                .filter(|&&(_, j)| (own..own + halo).contains(&j))
+                .map(|&(_, j)| j - own),
+        );
+        self.needed.sort_unstable();
+        self.needed.dedup();
+        let mut mine = Writer::default();
+        for &k in &self.needed {
+            mine.u32(k);
         }
-        let received = link.exchange(TrafficKind::Halo, outgoing);
-        if let Some(lender) = lender(&self.partition, self.rank, None) {
-            let mut r = Reader::new(&received[lender]);
-            for s in self.own..self.own + self.halo {
-                self.position[s] = r.vector();
-                self.radius[s] = r.f64();
-                self.mass[s] = r.f64();
+        let lists = link.gather(TrafficKind::Halo, &mine.0);
+        self.lending = [0, 1].map(|parity| {
+            (0..self.partition.ranks()).any(|r| {
+                !lists[r].is_empty() && lender(&self.partition, r, Some(parity)).is_some()
+            })
+        });
+        self.lent.clear();
+        if let Some(borrower) = borrower(&self.partition, self.rank, None) {
+            let mut r = Reader::new(&lists[borrower]);
+            while !r.is_empty() {
+                self.lent.push(r.u32());
             }
         }
     }
@@ -529,53 +549,53 @@ impl<V: Vector> Subdomain<V> {
         }
         let boxes = link.gather(TrafficKind::Ghosts, &mine.0);
         let mut outgoing: Vec<Writer> = (0..link.ranks()).map(|_| Writer::default()).collect();
-        // The rank borrowing this one's first block has it already.
-        let lent = borrower(&self.partition, self.rank, None);
         for (to, bytes) in boxes.iter().enumerate() {
             if to == self.rank || bytes.is_empty() {
                 continue;
             }
             let mut r = Reader::new(bytes);
             let (min, max): (V, V) = (r.vector(), r.vector());
-            let skip = if lent == Some(to) {
-                own.min(self.partition.block())
-            } else {
-                0
-            };
             let w = &mut outgoing[to];
-            for s in skip..own {
+            for s in 0..own {
                 let x = self.position[s];
                 if (0..V::DIM).all(|a| x.get(a) >= min.get(a) && x.get(a) <= max.get(a)) {
                     w.u32((self.first_slot + s) as u32)
                         .vector(x)
-                        .f64(self.radius[s]);
+                        .f64(self.radius[s])
+                        .f64(self.mass[s]);
                 }
             }
         }
-        let window = own + self.halo;
+        // Own particles, then the ghosts. The borrowed block's slots are searched only as
+        // ghosts: those out of reach keep stale values, which no contact will read.
         self.search_position.clear();
-        self.search_position
-            .extend_from_slice(&self.position[..window]);
+        self.search_position.extend_from_slice(&self.position[..own]);
         self.search_radius.clear();
-        self.search_radius.extend_from_slice(&self.radius[..window]);
+        self.search_radius.extend_from_slice(&self.radius[..own]);
         self.ghost_slot.clear();
+        let first = self.first_slot;
+        let borrowed = first + own..first + own + self.halo;
         for bytes in link.exchange(TrafficKind::Ghosts, outgoing) {
             let mut r = Reader::new(&bytes);
             while !r.is_empty() {
-                self.ghost_slot.push(r.u32());
-                self.search_position.push(r.vector());
-                self.search_radius.push(r.f64());
+                let (slot, x, radius, mass) = (r.u32(), r.vector(), r.f64(), r.f64());
+                if borrowed.contains(&(slot as usize)) {
+                    let w = slot as usize - first;
+                    (self.position[w], self.radius[w], self.mass[w]) = (x, radius, mass);
+                }
+                self.ghost_slot.push(slot);
+                self.search_position.push(x);
+                self.search_radius.push(radius);
             }
         }
         self.broad_phase
             .find_pairs(&self.search_position, &self.search_radius, &mut self.found);
-        let first = self.first_slot;
         let slot = |k: u32| -> usize {
             let k = k as usize;
-            if k < window {
+            if k < own {
                 first + k
             } else {
-                self.ghost_slot[k - window] as usize
+                self.ghost_slot[k - own] as usize
             }
         };
         self.pairs.clear();
@@ -689,45 +709,51 @@ struct Lender<'a, 'l, T: ?Sized, V> {
     rank: usize,
     first_slot: usize,
     own: usize,
-    halo: usize,
+    needed: &'a [u32],
+    lent: &'a [u32],
+    lending: [bool; 2],
     leftovers: &'a Leftovers<V>,
 }
 
 impl<T: Transport + ?Sized, V: Vector> Lender<'_, '_, T, V> {
-    /// Lends (`back == false`) or returns (`back == true`) the first blocks used by the block
-    /// pairs of `parity`.
+    /// Lends (`back == false`) or returns (`back == true`) the borrowed particles the block
+    /// pairs of `parity` touch.
     fn swap_halo(&mut self, parity: usize, data: &mut [V], back: bool) {
-        let borrower = borrower(self.partition, self.rank, Some(parity));
-        let lender = lender(self.partition, self.rank, Some(parity));
-        let anyone = (0..self.partition.ranks())
-            .any(|r| super::subdomain::lender(self.partition, r, Some(parity)).is_some());
-        if !anyone {
+        if !self.lending[parity] {
             return;
         }
-        let first_block = self.own.min(self.partition.block());
-        let borrowed = self.own..self.own + self.halo;
+        let borrower = borrower(self.partition, self.rank, Some(parity));
+        let lender = lender(self.partition, self.rank, Some(parity));
+        let own = self.own;
         let mut outgoing: Vec<Writer> = (0..self.link.ranks()).map(|_| Writer::default()).collect();
-        let (send_to, send) = if back {
-            (lender, borrowed.clone())
-        } else {
-            (borrower, 0..first_block)
-        };
-        if let Some(to) = send_to {
-            for &x in &data[send] {
-                outgoing[to].vector(x);
+        match (back, borrower, lender) {
+            (false, Some(to), _) => {
+                for &k in self.lent {
+                    outgoing[to].vector(data[k as usize]);
+                }
             }
+            (true, _, Some(to)) => {
+                for &k in self.needed {
+                    outgoing[to].vector(data[own + k as usize]);
+                }
+            }
+            _ => {}
         }
         let received = self.link.exchange(TrafficKind::Halo, outgoing);
-        let (receive_from, into) = if back {
-            (borrower, 0..first_block)
-        } else {
-            (lender, borrowed)
-        };
-        if let Some(from) = receive_from {
-            let mut r = Reader::new(&received[from]);
-            for x in &mut data[into] {
-                *x = r.vector();
+        match (back, borrower, lender) {
+            (false, _, Some(from)) => {
+                let mut r = Reader::new(&received[from]);
+                for &k in self.needed {
+                    data[own + k as usize] = r.vector();
+                }
             }
+            (true, Some(from), _) => {
+                let mut r = Reader::new(&received[from]);
+                for &k in self.lent {
+                    data[k as usize] = r.vector();
+                }
+            }
+            _ => {}
         }
     }
 }
