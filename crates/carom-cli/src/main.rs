@@ -1,6 +1,7 @@
 //! `carom`: run particle collision scenes from the command line.
 
 mod bench;
+mod cluster;
 mod render;
 mod run;
 mod session;
@@ -82,6 +83,11 @@ pub struct RunArgs {
     /// Steps between trajectory frames.
     #[arg(long, requires = "trajectory")]
     pub every: Option<u64>,
+    /// Split the run over N ranks, as threads of this process: the decomposition `mpirun -np
+    /// N carom run` uses (see "Running on a cluster" in the README), without MPI. The result
+    /// is bit-identical to one rank's.
+    #[arg(long)]
+    pub ranks: Option<usize>,
 }
 
 /// `--broadphase` values.
@@ -97,6 +103,8 @@ pub enum BroadPhaseArg {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    #[cfg(feature = "mpi")]
+    cluster::mpi::start();
     let result = match cli.command {
         Command::Run(args) => run::run(&args),
         Command::Check { scene } => run::check(&scene),
@@ -122,11 +130,29 @@ fn main() -> ExitCode {
             Ok(())
         }
     };
-    match result {
+    let status = match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("carom: error: {}", e.message);
+            // In a split run every rank fails the same way; rank 0 says so once.
+            #[cfg(feature = "mpi")]
+            let speaks = cluster::mpi::Mpi::current().is_none_or(|m| m.rank() == 0);
+            #[cfg(not(feature = "mpi"))]
+            let speaks = true;
+            if speaks && !e.message.is_empty() {
+                eprintln!("carom: error: {}", e.message);
+            }
+            #[cfg(feature = "mpi")]
+            if let Some(mpi) = cluster::mpi::Mpi::current() {
+                // A failure while working on one rank leaves the others waiting in a
+                // collective: end them all.
+                if mpi.size() > 1 && e.status == 1 {
+                    mpi.abort(1);
+                }
+            }
             ExitCode::from(e.status)
         }
-    }
+    };
+    #[cfg(feature = "mpi")]
+    cluster::mpi::stop();
+    status
 }

@@ -1,7 +1,9 @@
 //! `carom run` and `carom check`.
 
+use crate::session::Stepper;
 use crate::session::{drive, install_interrupt_handler, Driven, Outputs, Settings, INTERRUPTED};
 use crate::{BroadPhaseArg, RunArgs};
+use carom_engine::cluster::Transport;
 use carom_engine::{BroadPhaseKind, Vector, World};
 use carom_scene::{AnyScene, Scene};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -24,6 +26,13 @@ impl Failure {
         Self {
             status: 1,
             message: message.into(),
+        }
+    }
+    /// An exit status without a message (a rank other than 0 of a split run: rank 0 says why).
+    pub fn quiet(status: u8) -> Self {
+        Self {
+            status,
+            message: String::new(),
         }
     }
 }
@@ -196,36 +205,148 @@ fn run_scene<V: Vector>(
     outputs.check()?;
     let name = scene.name.clone();
     let steps = scene.steps;
-    let mut world = scene
+    // Thread ranks each build the world from the scene, as MPI ranks do.
+    let scene_copy = args.ranks.filter(|&r| r > 1).map(|_| scene.clone());
+    let world = scene
         .into_world()
         .map_err(|e| Failure::input(format!("{origin}: {e}")))?;
     install_interrupt_handler();
-
-    let energy_before = (world.kinetic_energy(), world.potential_energy());
-    let momentum_before = world.momentum();
+    let run = Labels {
+        name: name.as_deref(),
+        origin,
+        out: args.out.as_deref(),
+    };
+    #[cfg(feature = "mpi")]
+    if let Some(mpi) = crate::cluster::mpi::Mpi::current() {
+        if mpi.size() > 1 {
+            if args.ranks.is_some() {
+                return Err(Failure::input(
+                    "--ranks: not under mpirun, where the ranks are mpirun's processes",
+                ));
+            }
+            return run_split(world, mpi.transport(), steps, &outputs, &run);
+        }
+    }
+    match args.ranks {
+        Some(0) => return Err(Failure::input("--ranks: must be at least 1")),
+        Some(ranks) if ranks > 1 => {
+            return run_thread_ranks(scene_copy, world, ranks, steps, &outputs, &run);
+        }
+        _ => {}
+    }
+    let mut world = world;
+    let before = Before::of(&world);
     let progress = progress_bar(steps);
     let driven = drive(&mut world, steps, &outputs, &progress)?;
     progress.finish_and_clear();
-    finish(
-        &world,
-        name.as_deref(),
-        origin,
-        energy_before,
-        momentum_before,
-        &driven,
-        args.out.as_deref(),
-    )
+    finish(&world, &run, before, &driven)
+}
+
+/// How a run is named in its summary, and where its final state goes.
+pub struct Labels<'a> {
+    pub name: Option<&'a str>,
+    pub origin: &'a str,
+    pub out: Option<&'a Path>,
+}
+
+/// The conserved quantities at the start, to compare the end with.
+pub struct Before<V> {
+    pub kinetic: f64,
+    pub potential: f64,
+    pub momentum: V,
+}
+
+impl<V: Vector> Before<V> {
+    pub fn of(world: &World<V>) -> Self {
+        Self {
+            kinetic: world.kinetic_energy(),
+            potential: world.potential_energy(),
+            momentum: world.momentum(),
+        }
+    }
+}
+
+/// `carom run --ranks N`: the split run of `mpirun -np N`, with the ranks as threads of this
+/// process talking through shared memory. Same decomposition, same messages, same bits.
+fn run_thread_ranks<V: Vector>(
+    scene: Option<Scene<V>>,
+    world: World<V>,
+    ranks: usize,
+    steps: u64,
+    outputs: &Outputs,
+    run: &Labels,
+) -> Result<(), Failure> {
+    let mut worlds = vec![world];
+    for _ in 1..ranks {
+        let copy = scene
+            .clone()
+            .ok_or_else(|| Failure::runtime("no scene to copy"))?;
+        worlds.push(
+            copy.into_world()
+                .map_err(|e| Failure::input(format!("{}: {e}", run.origin)))?,
+        );
+    }
+    let transports = carom_engine::cluster::ThreadTransport::group(ranks);
+    std::thread::scope(|s| {
+        let handles: Vec<_> = worlds
+            .into_iter()
+            .zip(transports)
+            .map(|(world, transport)| {
+                s.spawn(move || run_split(world, transport, steps, outputs, run))
+            })
+            .collect();
+        let mut results = handles.into_iter().map(|h| {
+            h.join()
+                .unwrap_or_else(|_| Err(Failure::runtime("a rank thread panicked")))
+        });
+        let first = results.next().unwrap_or(Ok(()));
+        // The other ranks end as rank 0 does, or fail on their own.
+        results.fold(first, |acc, r| {
+            acc.and(r.or_else(|e| if e.message.is_empty() { Ok(()) } else { Err(e) }))
+        })
+    })
+}
+
+/// A run split over ranks (MPI processes or threads): every output written by rank 0 from the
+/// gathered state, the same files a single process writes.
+fn run_split<V: Vector, T: Transport>(
+    world: World<V>,
+    transport: T,
+    steps: u64,
+    outputs: &Outputs,
+    run: &Labels,
+) -> Result<(), Failure> {
+    let before = Before::of(&world);
+    let mut split = crate::cluster::Split::new(world, transport)
+        .map_err(|e| Failure::input(format!("{}: {e}", run.origin)))?;
+    let progress = if split.rank() == 0 {
+        progress_bar(steps)
+    } else {
+        ProgressBar::hidden()
+    };
+    let driven = drive(&mut split, steps, outputs, &progress)?;
+    progress.finish_and_clear();
+    let report = split.report();
+    let Some(world) = split.world() else {
+        // Rank 0 reports; the others end with the same status, quietly.
+        return match driven.interrupted_at {
+            Some(_) => Err(Failure::quiet(INTERRUPTED)),
+            None => Ok(()),
+        };
+    };
+    finish(world, run, before, &driven)?;
+    if let Some(report) = report {
+        report.print(driven.steps_run);
+    }
+    Ok(())
 }
 
 /// After the loop: the final CSV (unless interrupted), the summary, and the exit status.
 pub fn finish<V: Vector>(
     world: &World<V>,
-    name: Option<&str>,
-    origin: &str,
-    energy_before: (f64, f64),
-    momentum_before: V,
+    run: &Labels,
+    before: Before<V>,
     driven: &Driven,
-    out: Option<&Path>,
 ) -> Result<(), Failure> {
     if let Some(at) = driven.interrupted_at {
         return Err(Failure {
@@ -236,22 +357,23 @@ pub fn finish<V: Vector>(
             ),
         });
     }
-    if let Some(out) = out {
-        carom_output::save_state_csv(out, world.particles())
+    if let Some(out) = run.out {
+        // Through the session's writer, so that a second Ctrl-C cannot leave it half done.
+        crate::session::write_whole(out, |w| carom_output::write_state_csv(world.particles(), w))
             .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", out.display())))?;
     }
     print_summary(
-        name,
+        run.name,
         driven.steps_run,
-        origin,
+        run.origin,
         world,
-        energy_before,
-        momentum_before,
+        (before.kinetic, before.potential),
+        before.momentum,
         driven.seconds,
         driven.contacts_total,
         driven.contacts_max,
         driven.capped_steps,
-        out,
+        run.out,
     );
     Ok(())
 }

@@ -15,7 +15,7 @@
 //!   finish another file (see [`write_whole`]).
 
 use crate::run::{check_output_path, Failure};
-use carom_engine::{Vector, World};
+use carom_engine::{StepStats, Vector, World};
 use carom_output::checkpoint::Checkpoint;
 use indicatif::ProgressBar;
 use std::io::{BufWriter, Write};
@@ -158,6 +158,42 @@ impl Write for CsvFile {
 /// True once Ctrl-C or SIGTERM asked the run to stop.
 pub fn stop_requested() -> bool {
     STOP.load(Ordering::SeqCst)
+}
+
+/// What the step loop drives: one [`World`], or this process's share of one split over ranks
+/// ([`crate::cluster::Split`]). Under a split every method but `steps_taken` is collective:
+/// all ranks call them at the same steps.
+pub trait Stepper<V: Vector> {
+    /// One step.
+    fn step(&mut self) -> StepStats;
+    /// Steps taken so far.
+    fn steps_taken(&self) -> u64;
+    /// The whole world as it is now, on the process that writes output (`None` on the others).
+    fn world(&mut self) -> Option<&World<V>>;
+    /// True once Ctrl-C or SIGTERM asked the run (any rank of it) to stop.
+    fn stop_requested(&mut self) -> bool;
+    /// Runs the step loop `work` where stepping is cheapest.
+    fn run_loop(&mut self, work: impl FnOnce(&mut Self) + Send);
+}
+
+impl<V: Vector> Stepper<V> for World<V> {
+    fn step(&mut self) -> StepStats {
+        World::step(self)
+    }
+    fn steps_taken(&self) -> u64 {
+        World::steps_taken(self)
+    }
+    fn world(&mut self) -> Option<&World<V>> {
+        Some(self)
+    }
+    fn stop_requested(&mut self) -> bool {
+        stop_requested()
+    }
+    fn run_loop(&mut self, work: impl FnOnce(&mut Self) + Send) {
+        // On a pool thread: parallel calls made from outside the pool go through rayon's
+        // global queue, which allocates as it goes; from inside, stepping allocates nothing.
+        rayon::scope(|_| work(self));
+    }
 }
 
 /// Run settings a checkpoint must carry besides the scene text.
@@ -305,54 +341,59 @@ pub fn save_checkpoint<V: Vector>(
         .map_err(|e| Failure::runtime(format!("cannot write checkpoint {}: {e}", path.display())))
 }
 
-/// Steps `world` until `total_steps`, writing trajectory frames and checkpoints, and stopping
-/// early (after a whole step) on an interrupt.
-pub fn drive<V: Vector>(
-    world: &mut World<V>,
+/// Steps until `total_steps`, writing trajectory frames and checkpoints, and stopping early
+/// (after a whole step) on an interrupt.
+pub fn drive<V: Vector, S: Stepper<V>>(
+    stepper: &mut S,
     total_steps: u64,
     outputs: &Outputs,
     progress: &ProgressBar,
 ) -> Result<Driven, Failure> {
     let mut trajectory = match &outputs.trajectory {
         None => None,
-        Some((path, every)) => Some((Trajectory::open(path, world)?, *every, path.clone())),
+        Some((path, every)) => match stepper.world() {
+            Some(world) => Some((Trajectory::open(path, world)?, *every, path.clone())),
+            None => None,
+        },
     };
     let mut driven = Driven::default();
     let started = Instant::now();
     let mut failure = None;
-    // Step on a pool thread: parallel calls made from outside the pool go through rayon's
-    // global queue, which allocates as it goes; from inside, stepping allocates nothing.
-    rayon::scope(|_| {
-        while world.steps_taken() < total_steps {
-            let stats = world.step();
+    stepper.run_loop(|stepper| {
+        while stepper.steps_taken() < total_steps {
+            let stats = stepper.step();
             driven.steps_run += 1;
             driven.contacts_total += stats.contacts as u64;
             driven.contacts_max = driven.contacts_max.max(stats.contacts);
             driven.capped_steps += stats.capped as u64;
-            let step = world.steps_taken();
+            let step = stepper.steps_taken();
             if step % 64 == 0 {
                 progress.set_position(step);
             }
-            if let Some((w, every, path)) = trajectory.as_mut() {
-                if step % *every == 0 {
-                    if let Err(e) = w.frame(world) {
-                        failure = Some(Failure::runtime(format!(
-                            "cannot write {}: {e}",
-                            path.display()
-                        )));
-                        return;
+            if let Some((_, every)) = &outputs.trajectory {
+                if step % every == 0 {
+                    if let (Some(world), Some((w, _, path))) = (stepper.world(), &mut trajectory) {
+                        if let Err(e) = w.frame(world) {
+                            failure = Some(Failure::runtime(format!(
+                                "cannot write {}: {e}",
+                                path.display()
+                            )));
+                            return;
+                        }
                     }
                 }
             }
             if let Some((path, every)) = &outputs.checkpoint {
                 if step % every == 0 {
-                    if let Err(e) = save_checkpoint(path, world, outputs) {
-                        failure = Some(e);
-                        return;
+                    if let Some(world) = stepper.world() {
+                        if let Err(e) = save_checkpoint(path, world, outputs) {
+                            failure = Some(e);
+                            return;
+                        }
                     }
                 }
             }
-            if STOP.load(Ordering::SeqCst) && step < total_steps {
+            if step < total_steps && stepper.stop_requested() {
                 driven.interrupted_at = Some(step);
                 return;
             }
@@ -365,7 +406,9 @@ pub fn drive<V: Vector>(
     if let Some(at) = driven.interrupted_at {
         if let Some((path, every)) = &outputs.checkpoint {
             if at % every != 0 {
-                save_checkpoint(path, world, outputs)?;
+                if let Some(world) = stepper.world() {
+                    save_checkpoint(path, world, outputs)?;
+                }
             }
         }
     }
@@ -468,19 +511,15 @@ fn resume_scene<V: Vector>(
         .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
     let total = outputs.settings.steps;
     install_interrupt_handler();
-    let before = (world.kinetic_energy(), world.potential_energy());
-    let momentum = world.momentum();
+    let before = crate::run::Before::of(&world);
     let progress = crate::run::progress_bar(total);
     progress.set_position(world.steps_taken());
     let driven = drive(&mut world, total, outputs, &progress)?;
     progress.finish_and_clear();
-    crate::run::finish(
-        &world,
-        name.as_deref(),
-        &shown,
-        before,
-        momentum,
-        &driven,
-        args.out.as_deref(),
-    )
+    let run = crate::run::Labels {
+        name: name.as_deref(),
+        origin: &shown,
+        out: args.out.as_deref(),
+    };
+    crate::run::finish(&world, &run, before, &driven)
 }

@@ -1,0 +1,167 @@
+//! [`Transport`] over MPI, through the `mpi` crate (rsmpi): each collective of the
+//! decomposition is one MPI collective (`MPI_Allgatherv`, `MPI_Alltoallv`, after an
+//! `MPI_Allgather`/`MPI_Alltoall` of the byte counts).
+
+use carom_engine::cluster::Transport;
+use mpi::datatype::{Partition, PartitionMut};
+use mpi::environment::Universe;
+use mpi::topology::{Communicator, SimpleCommunicator};
+use mpi::traits::*;
+use mpi::Count;
+use std::sync::{Mutex, PoisonError};
+
+/// MPI's environment for the whole process: set up by [`start`], torn down by [`stop`].
+static UNIVERSE: Mutex<Option<Universe>> = Mutex::new(None);
+
+/// Initialises MPI (a world of one rank when not started by `mpirun`). Call once, first.
+pub fn start() {
+    if let Some(universe) = mpi::initialize() {
+        *UNIVERSE.lock().unwrap_or_else(PoisonError::into_inner) = Some(universe);
+    }
+}
+
+/// Finalises MPI (every rank must, or `mpirun` reports the job as failed). Call once, last.
+pub fn stop() {
+    drop(
+        UNIVERSE
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take(),
+    );
+}
+
+/// A handle on `MPI_COMM_WORLD`.
+pub struct Mpi {
+    world: SimpleCommunicator,
+}
+
+impl Mpi {
+    /// The running MPI world, if [`start`] set one up.
+    pub fn current() -> Option<Self> {
+        let universe = UNIVERSE.lock().unwrap_or_else(PoisonError::into_inner);
+        universe.as_ref().map(|u| Self { world: u.world() })
+    }
+
+    /// A transport over every rank.
+    pub fn transport(&self) -> MpiTransport {
+        MpiTransport {
+            world: self.world.duplicate(),
+        }
+    }
+
+    /// This process's rank.
+    pub fn rank(&self) -> usize {
+        self.world.rank() as usize
+    }
+
+    /// Number of ranks.
+    pub fn size(&self) -> usize {
+        self.world.size() as usize
+    }
+
+    /// Every rank's `count`, on every rank.
+    pub fn gather_counts(&self, count: usize) -> Vec<usize> {
+        let mut all = vec![0u64; self.size()];
+        self.world.all_gather_into(&(count as u64), &mut all[..]);
+        all.into_iter().map(|c| c as usize).collect()
+    }
+
+    /// Ends every rank of the job with `status`: after a failure on one rank that the others,
+    /// waiting in a collective, cannot see.
+    pub fn abort(&self, status: i32) -> ! {
+        self.world.abort(status)
+    }
+}
+
+/// [`Transport`] over `MPI_COMM_WORLD`.
+pub struct MpiTransport {
+    world: SimpleCommunicator,
+}
+
+fn displacements(counts: &[Count]) -> Vec<Count> {
+    counts
+        .iter()
+        .scan(0, |at, &c| {
+            let d = *at;
+            *at += c;
+            Some(d)
+        })
+        .collect()
+}
+
+fn split(buffer: &[u8], counts: &[Count]) -> Vec<Vec<u8>> {
+    let mut at = 0usize;
+    counts
+        .iter()
+        .map(|&c| {
+            let part = buffer[at..at + c as usize].to_vec();
+            at += c as usize;
+            part
+        })
+        .collect()
+}
+
+/// A zeroed buffer of `len` bytes that owns real memory even when empty: MPI refuses a send
+/// and a receive buffer at the same address, which two empty `Vec`s (both dangling) would be.
+fn buffer(len: usize) -> Vec<u8> {
+    let mut b = Vec::with_capacity(len.max(1));
+    b.resize(len, 0);
+    b
+}
+
+fn count(len: usize) -> Count {
+    Count::try_from(len).expect("an MPI message above 2 GiB")
+}
+
+impl Transport for MpiTransport {
+    fn rank(&self) -> usize {
+        self.world.rank() as usize
+    }
+
+    fn size(&self) -> usize {
+        self.world.size() as usize
+    }
+
+    fn all_gather(&mut self, mine: &[u8]) -> Vec<Vec<u8>> {
+        let size = self.size();
+        let mut counts = vec![0 as Count; size];
+        self.world
+            .all_gather_into(&count(mine.len()), &mut counts[..]);
+        let displs = displacements(&counts);
+        let total: usize = counts.iter().map(|&c| c as usize).sum();
+        let mut received = buffer(total);
+        let mut send = buffer(mine.len());
+        send.copy_from_slice(mine);
+        {
+            let mut partition = PartitionMut::new(&mut received[..], &counts[..], &displs[..]);
+            self.world
+                .all_gather_varcount_into(&send[..], &mut partition);
+        }
+        split(&received, &counts)
+    }
+
+    fn all_to_all(&mut self, outgoing: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
+        let send_counts: Vec<Count> = outgoing.iter().map(|m| count(m.len())).collect();
+        let mut receive_counts = vec![0 as Count; self.size()];
+        self.world
+            .all_to_all_into(&send_counts[..], &mut receive_counts[..]);
+        let mut send = buffer(send_counts.iter().map(|&c| c as usize).sum());
+        let mut at = 0;
+        for m in &outgoing {
+            send[at..at + m.len()].copy_from_slice(m);
+            at += m.len();
+        }
+        let send_displs = displacements(&send_counts);
+        let receive_displs = displacements(&receive_counts);
+        let total: usize = receive_counts.iter().map(|&c| c as usize).sum();
+        let mut received = buffer(total);
+        {
+            let send_partition = Partition::new(&send[..], &send_counts[..], &send_displs[..]);
+            let mut receive_partition =
+                PartitionMut::new(&mut received[..], &receive_counts[..], &receive_displs[..]);
+            self.world
+                .all_to_all_varcount_into(&send_partition, &mut receive_partition);
+        }
+        split(&received, &receive_counts)
+    }
+}
