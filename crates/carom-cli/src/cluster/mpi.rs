@@ -59,13 +59,6 @@ impl Mpi {
         self.world.size() as usize
     }
 
-    /// Every rank's `count`, on every rank.
-    pub fn gather_counts(&self, count: usize) -> Vec<usize> {
-        let mut all = vec![0u64; self.size()];
-        self.world.all_gather_into(&(count as u64), &mut all[..]);
-        all.into_iter().map(|c| c as usize).collect()
-    }
-
     /// Ends every rank of the job with `status`: after a failure on one rank that the others,
     /// waiting in a collective, cannot see.
     pub fn abort(&self, status: i32) -> ! {

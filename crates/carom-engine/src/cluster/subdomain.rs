@@ -7,18 +7,19 @@ use crate::broadphase::{BroadPhase, Pair, PARALLEL_MIN};
 use crate::diagnostics::StepStats;
 use crate::domain::Aabb;
 use crate::error::EngineError;
-use crate::grid::{bounding_box, widened_reach};
+use crate::grid::{bounding_box, widened_reach, Grid};
 use crate::particles::Particles;
 use crate::plane::Plane;
 use crate::solver::{self, pair_mut, Blocks, Bodies, Body, Exchange, PlaneContact};
 use crate::vector::Vector;
 use crate::world::REORDER_INTERVAL;
-use crate::world::{block_size, new_broad_phase, sort_layout, Snapshot, World, WorldConfig};
+use crate::world::{block_size, sort_layout, Snapshot, World, WorldConfig};
 
 /// What a message carried, for the traffic figures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TrafficKind {
-    /// Particles moving to a new owner at a spatial sort, and the sort keys.
+    /// Particles moving to a new owner at a spatial sort, and the bisection that finds where
+    /// each rank's share starts.
     Migration,
     /// A neighbour's first block lent for the contacts across the border, and given back.
     Halo,
@@ -127,6 +128,11 @@ impl<T: Transport + ?Sized> Link<'_, T> {
 
     /// `local` added up over every rank.
     fn sum(&mut self, local: &[u64]) -> Vec<u64> {
+        self.sum_of(TrafficKind::Reductions, local)
+    }
+
+    /// `local` added up over every rank, counted as `kind`.
+    fn sum_of(&mut self, kind: TrafficKind, local: &[u64]) -> Vec<u64> {
         if self.ranks() == 1 {
             return local.to_vec();
         }
@@ -135,7 +141,7 @@ impl<T: Transport + ?Sized> Link<'_, T> {
             w.u64(x);
         }
         let mut total = vec![0u64; local.len()];
-        for bytes in self.gather(TrafficKind::Reductions, &w.0) {
+        for bytes in self.gather(kind, &w.0) {
             let mut r = Reader::new(&bytes);
             for t in total.iter_mut() {
                 *t += r.u64();
@@ -153,9 +159,9 @@ impl<T: Transport + ?Sized> Link<'_, T> {
 /// [`Subdomain::new`], then calls [`Subdomain::step`] the same number of times; the calls are
 /// collective. [`Subdomain::gather`] puts the state back together on rank 0.
 ///
-/// Memory per rank is its own particles plus one borrowed block plus its ghosts, except at a
-/// spatial sort, where every rank briefly holds one sort key and one slot number per particle
-/// of the whole world (8 + 4 bytes each).
+/// Memory per rank is its own particles, one borrowed block and its ghosts. At a spatial sort
+/// the ranks find where each one's share starts in the global order by bisection (about 50
+/// sums of `ranks - 1` numbers), and only the particles that crossed a border move.
 pub struct Subdomain<V: Vector> {
     config: WorldConfig<V>,
     planes: Vec<Plane<V>>,
@@ -218,13 +224,33 @@ impl<V: Vector> Subdomain<V> {
             partition.block_slots(partition.blocks_of(rank).end).len()
         });
         let store = &world.store;
+        // Which particle sits in each slot. When the first step will sort anyway, sort here,
+        // where every rank has the whole world: that step then finds every particle on its
+        // rank already, instead of moving most of them.
+        let ids: Vec<u32> = if world.steps_taken() % REORDER_INTERVAL == 0 && n > 0 {
+            let bounds = world
+                .config()
+                .domain
+                .unwrap_or_else(|| bounding_box(&store.position));
+            let layout = sort_layout(&bounds, store.max_radius(), n);
+            let mut keyed: Vec<(u64, u32)> = (0..n)
+                .map(|s| {
+                    let key = layout.linear(layout.cell_coords(store.position[s])) as u64;
+                    ((key << 32) | world.ids[s] as u64, s as u32)
+                })
+                .collect();
+            keyed.sort_unstable();
+            keyed[slots.clone()].iter().map(|&(_, s)| s).collect()
+        } else {
+            (slots.start as u32..slots.end as u32).collect()
+        };
         let window = |v: &[V]| {
-            let mut w = v[slots.clone()].to_vec();
+            let mut w: Vec<V> = ids.iter().map(|&s| v[s as usize]).collect();
             w.resize(slots.len() + halo, V::ZERO);
             w
         };
         let window_f64 = |v: &[f64]| {
-            let mut w = v[slots.clone()].to_vec();
+            let mut w: Vec<f64> = ids.iter().map(|&s| v[s as usize]).collect();
             w.resize(slots.len() + halo, 1.0);
             w
         };
@@ -239,9 +265,12 @@ impl<V: Vector> Subdomain<V> {
             velocity: window(&store.velocity),
             radius: window_f64(&store.radius),
             mass: window_f64(&store.mass),
-            ids: world.ids[slots.clone()].to_vec(),
+            ids: ids.iter().map(|&s| world.ids[s as usize]).collect(),
             max_radius: store.max_radius(),
-            broad_phase: new_broad_phase(world.config())?,
+            // Every broad phase finds the same pairs, so each rank may pick the one that suits
+            // its share: a grid over its own particles and ghosts, not over the whole domain
+            // (whose cell count would not shrink with more ranks).
+            broad_phase: Box::new(Grid::new(None, None)?),
             search_position: Vec::new(),
             search_radius: Vec::new(),
             ghost_slot: Vec::new(),
@@ -454,47 +483,99 @@ impl<V: Vector> Subdomain<V> {
             }
         };
         let layout = sort_layout(&bounds, self.max_radius, n);
-        let mut keys = Writer::default();
-        for s in 0..own {
-            let key = layout.linear(layout.cell_coords(self.position[s])) as u32;
-            keys.u32(key).u32(self.ids[s]);
-        }
-        // The new order: by cell, ties by id, exactly as World's counting sort.
-        let mut keyed: Vec<(u32, u32)> = Vec::with_capacity(n);
-        for bytes in link.gather(TrafficKind::Migration, &keys.0) {
-            let mut r = Reader::new(&bytes);
-            while !r.is_empty() {
-                keyed.push((r.u32(), r.u32()));
-            }
-        }
-        keyed.sort_unstable();
-        let mut new_slot = vec![0u32; n];
-        for (slot, &(_, id)) in keyed.iter().enumerate() {
-            new_slot[id as usize] = slot as u32;
-        }
-        drop(keyed);
+        // The new order is by cell, ties by id, exactly as World's counting sort: sort by
+        // `cell << 32 | id`, a unique 64-bit value per particle.
+        let mut order: Vec<(u64, u32)> = (0..own)
+            .map(|s| {
+                let key = layout.linear(layout.cell_coords(self.position[s])) as u64;
+                ((key << 32) | self.ids[s] as u64, s as u32)
+            })
+            .collect();
+        order.sort_unstable();
+        let splits = self.find_splits(link, &order);
+        // Each particle goes to the rank whose range of values holds it: only the particles
+        // that crossed a border move.
         let mut outgoing: Vec<Writer> = (0..link.ranks()).map(|_| Writer::default()).collect();
-        for s in 0..own {
-            let slot = new_slot[self.ids[s] as usize];
-            outgoing[self.partition.owner_of_slot(slot as usize)]
-                .u32(slot)
-                .u32(self.ids[s])
+        for &(value, s) in &order {
+            let s = s as usize;
+            outgoing[splits.partition_point(|&split| split <= value)]
+                .u64(value)
                 .vector(self.position[s])
                 .vector(self.velocity[s])
                 .f64(self.radius[s])
                 .f64(self.mass[s]);
         }
+        let mut arrived: Vec<(u64, V, V, f64, f64)> = Vec::with_capacity(own);
         for bytes in link.exchange(TrafficKind::Migration, outgoing) {
             let mut r = Reader::new(&bytes);
             while !r.is_empty() {
-                let s = r.u32() as usize - self.first_slot;
-                self.ids[s] = r.u32();
-                self.position[s] = r.vector();
-                self.velocity[s] = r.vector();
-                self.radius[s] = r.f64();
-                self.mass[s] = r.f64();
+                arrived.push((r.u64(), r.vector(), r.vector(), r.f64(), r.f64()));
             }
         }
+        arrived.sort_unstable_by_key(|a| a.0);
+        debug_assert_eq!(arrived.len(), own, "a rank keeps its slot count");
+        for (s, (value, x, v, radius, mass)) in arrived.into_iter().enumerate() {
+            self.ids[s] = value as u32;
+            self.position[s] = x;
+            self.velocity[s] = v;
+            self.radius[s] = radius;
+            self.mass[s] = mass;
+        }
+    }
+
+    /// The sort values where ranks 1.. start: the value at global position `first slot of
+    /// rank r` of all ranks' sorted values (`u64::MAX` past the end), found by bisection with
+    /// one sum over ranks per halving. `order` is this rank's values, sorted.
+    fn find_splits<T: Transport + ?Sized>(
+        &self,
+        link: &mut Link<'_, T>,
+        order: &[(u64, u32)],
+    ) -> Vec<u64> {
+        let n = self.partition.slots() as u64;
+        let targets: Vec<u64> = (1..link.ranks())
+            .map(|r| self.partition.slots_of(r).start as u64)
+            .collect();
+        let mut span = Writer::default();
+        if let (Some(first), Some(last)) = (order.first(), order.last()) {
+            span.u64(first.0).u64(last.0);
+        }
+        let (mut min, mut max) = (u64::MAX, 0);
+        for bytes in link.gather(TrafficKind::Migration, &span.0) {
+            let mut r = Reader::new(&bytes);
+            if !r.is_empty() {
+                min = min.min(r.u64());
+                max = max.max(r.u64());
+            }
+        }
+        // For each target g: the smallest value v with count(values <= v) >= g + 1.
+        let mut lo: Vec<u64> = targets.iter().map(|_| min).collect();
+        let mut hi: Vec<u64> = targets.iter().map(|_| max).collect();
+        loop {
+            let open: Vec<usize> = (0..targets.len())
+                .filter(|&t| targets[t] < n && lo[t] < hi[t])
+                .collect();
+            if open.is_empty() {
+                break;
+            }
+            let mids: Vec<u64> = open.iter().map(|&t| lo[t] + (hi[t] - lo[t]) / 2).collect();
+            let local: Vec<u64> = mids
+                .iter()
+                .map(|&mid| order.partition_point(|&(v, _)| v <= mid) as u64)
+                .collect();
+            let counts = link.sum_of(TrafficKind::Migration, &local);
+            for ((&t, &mid), &count) in open.iter().zip(&mids).zip(&counts) {
+                if count > targets[t] {
+                    hi[t] = mid;
+                } else {
+                    lo[t] = mid + 1;
+                }
+            }
+        }
+        targets
+            .iter()
+            .zip(lo)
+            .map(|(&g, v)| if g >= n { u64::MAX } else { v })
+            .collect()
     }
 
     /// Tells the next rank which of its first block's particles this step's contacts touch
@@ -516,9 +597,8 @@ impl<V: Vector> Subdomain<V> {
         }
         let lists = link.gather(TrafficKind::Halo, &mine.0);
         self.lending = [0, 1].map(|parity| {
-            (0..self.partition.ranks()).any(|r| {
-                !lists[r].is_empty() && lender(&self.partition, r, Some(parity)).is_some()
-            })
+            (0..self.partition.ranks())
+                .any(|r| !lists[r].is_empty() && lender(&self.partition, r, Some(parity)).is_some())
         });
         self.lent.clear();
         if let Some(borrower) = borrower(&self.partition, self.rank, None) {
@@ -569,7 +649,8 @@ impl<V: Vector> Subdomain<V> {
         // Own particles, then the ghosts. The borrowed block's slots are searched only as
         // ghosts: those out of reach keep stale values, which no contact will read.
         self.search_position.clear();
-        self.search_position.extend_from_slice(&self.position[..own]);
+        self.search_position
+            .extend_from_slice(&self.position[..own]);
         self.search_radius.clear();
         self.search_radius.extend_from_slice(&self.radius[..own]);
         self.ghost_slot.clear();

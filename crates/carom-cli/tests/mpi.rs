@@ -1,0 +1,163 @@
+//! `mpirun -np P carom run`: real MPI processes (needs `--features mpi` and an MPI
+//! installation; `.ci/run` installs Open MPI and runs `cargo test -p carom-cli --features mpi
+//! --test mpi`). Each run on 1, 2 and 4 ranks must write the very bytes a single process
+//! writes.
+#![cfg(feature = "mpi")]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const CAROM: &str = env!("CARGO_BIN_EXE_carom");
+
+fn scene(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+/// `mpirun -np ranks carom args...`, allowed as root and with more ranks than cores (CI
+/// machines have two).
+fn mpirun(ranks: usize, args: &[&str]) -> Output {
+    Command::new("mpirun")
+        .args([
+            "--allow-run-as-root",
+            "--oversubscribe",
+            "-np",
+            &ranks.to_string(),
+            CAROM,
+        ])
+        .args(args)
+        .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
+        .output()
+        .expect("mpirun starts (install Open MPI: apt-get install openmpi-bin libopenmpi-dev)")
+}
+
+fn ok(out: Output, what: &str) -> String {
+    assert!(
+        out.status.success(),
+        "{what} failed ({:?}): {}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr),
+        String::from_utf8_lossy(&out.stdout)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn outputs(dir: &Path) -> [PathBuf; 3] {
+    [
+        dir.join("final.csv"),
+        dir.join("run.pvd"),
+        dir.join("state.ckpt"),
+    ]
+}
+
+fn args<'a>(scene: &'a str, steps: &'a str, p: &'a [String; 3]) -> Vec<&'a str> {
+    vec![
+        "run",
+        scene,
+        "--steps",
+        steps,
+        "--out",
+        &p[0],
+        "--trajectory",
+        &p[1],
+        "--every",
+        "50",
+        "--checkpoint",
+        &p[2],
+        "--checkpoint-every",
+        "60",
+    ]
+}
+
+/// Every file under `dir`, relative, with its bytes.
+fn tree(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p.strip_prefix(dir).unwrap().to_path_buf();
+                files.push((rel, std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+#[test]
+fn one_two_and_four_ranks_write_the_single_process_files() {
+    for (file, steps, ranks) in [
+        ("lecture_5000_grid100.toml", "200", &[1usize, 2, 4][..]),
+        ("lecture_mixed_radii.toml", "150", &[2, 4][..]),
+        ("box_3d.toml", "100", &[2][..]),
+    ] {
+        let path = scene(file);
+        let single = tempfile::tempdir().unwrap();
+        let p = outputs(single.path()).map(|p| p.display().to_string());
+        ok(
+            Command::new(CAROM)
+                .args(args(&path, steps, &p))
+                .output()
+                .unwrap(),
+            "single process",
+        );
+        let want = tree(single.path());
+        assert!(want.len() >= 4, "outputs missing: {want:?}");
+        for &r in ranks {
+            let dir = tempfile::tempdir().unwrap();
+            let q = outputs(dir.path()).map(|p| p.display().to_string());
+            let summary = ok(
+                mpirun(r, &args(&path, steps, &q)),
+                &format!("{file} on {r} ranks"),
+            );
+            if r > 1 {
+                assert!(
+                    summary.contains(&format!("ranks       {r} (particles per rank:")),
+                    "{summary}"
+                );
+                // rank 0 alone prints the summary
+                assert_eq!(
+                    summary.matches("particles per rank").count(),
+                    1,
+                    "{summary}"
+                );
+            }
+            let got = tree(dir.path());
+            let names =
+                |t: &[(PathBuf, Vec<u8>)]| t.iter().map(|f| f.0.clone()).collect::<Vec<_>>();
+            assert_eq!(
+                names(&got),
+                names(&want),
+                "{file} on {r} ranks: other files"
+            );
+            for ((name, a), (_, b)) in want.iter().zip(&got) {
+                assert!(a == b, "{file} on {r} ranks: {} differs", name.display());
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_input_under_mpirun_fails_once_with_status_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "dimensions = 2\ndt = -1.0\n").unwrap();
+    let out = mpirun(2, &["run", bad.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.matches("carom: error").count(), 1, "{stderr}");
+    assert!(stderr.contains("bad.toml"), "{stderr}");
+}
+
+#[test]
+fn ranks_flag_is_refused_under_mpirun() {
+    let out = mpirun(2, &["run", "--steps", "1", "--ranks", "2"]);
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+}
