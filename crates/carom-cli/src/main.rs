@@ -105,6 +105,19 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     #[cfg(feature = "mpi")]
     cluster::mpi::start();
+    #[cfg(feature = "mpi")]
+    if let Some(mpi) = cluster::mpi::Mpi::current() {
+        if mpi.size() > 1 && !matches!(cli.command, Command::Run(_) | Command::Resume(_)) {
+            if mpi.rank() == 0 {
+                eprintln!(
+                    "carom: error: only `carom run` and `carom resume` split over mpirun's \
+                     ranks; start this command without mpirun"
+                );
+            }
+            cluster::mpi::stop();
+            return ExitCode::from(2);
+        }
+    }
     let result = match cli.command {
         Command::Run(args) => run::run(&args),
         Command::Check { scene } => run::check(&scene),

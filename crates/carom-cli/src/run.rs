@@ -205,41 +205,59 @@ fn run_scene<V: Vector>(
     outputs.check()?;
     let name = scene.name.clone();
     let steps = scene.steps;
-    // Thread ranks each build the world from the scene, as MPI ranks do.
-    let scene_copy = args.ranks.filter(|&r| r > 1).map(|_| scene.clone());
-    let world = scene
-        .into_world()
-        .map_err(|e| Failure::input(format!("{origin}: {e}")))?;
-    install_interrupt_handler();
+    let rebuild = || {
+        scene
+            .clone()
+            .into_world()
+            .map_err(|e| Failure::input(format!("{origin}: {e}")))
+    };
+    let world = rebuild()?;
     let run = Labels {
         name: name.as_deref(),
         origin,
         out: args.out.as_deref(),
     };
+    run_world(world, &rebuild, args.ranks, steps, &outputs, &run)
+}
+
+/// Steps `world` to `steps` with its outputs, then finishes (summary, final CSV, status):
+/// alone, split over `mpirun`'s ranks (with the `mpi` feature), or split over `ranks` threads.
+/// `rebuild` makes another copy of the starting world: every thread rank builds its own, as
+/// every MPI rank does.
+pub fn run_world<V: Vector>(
+    world: World<V>,
+    rebuild: &(dyn Fn() -> Result<World<V>, Failure> + Sync),
+    ranks: Option<usize>,
+    steps: u64,
+    outputs: &Outputs,
+    run: &Labels,
+) -> Result<(), Failure> {
+    install_interrupt_handler();
     #[cfg(feature = "mpi")]
     if let Some(mpi) = crate::cluster::mpi::Mpi::current() {
         if mpi.size() > 1 {
-            if args.ranks.is_some() {
+            if ranks.is_some() {
                 return Err(Failure::input(
                     "--ranks: not under mpirun, where the ranks are mpirun's processes",
                 ));
             }
-            return run_split(world, mpi.transport(), steps, &outputs, &run);
+            return run_split(world, mpi.transport(), steps, outputs, run);
         }
     }
-    match args.ranks {
+    match ranks {
         Some(0) => return Err(Failure::input("--ranks: must be at least 1")),
         Some(ranks) if ranks > 1 => {
-            return run_thread_ranks(scene_copy, world, ranks, steps, &outputs, &run);
+            return run_thread_ranks(world, rebuild, ranks, steps, outputs, run);
         }
         _ => {}
     }
     let mut world = world;
     let before = Before::of(&world);
     let progress = progress_bar(steps);
-    let driven = drive(&mut world, steps, &outputs, &progress)?;
+    progress.set_position(world.steps_taken());
+    let driven = drive(&mut world, steps, outputs, &progress)?;
     progress.finish_and_clear();
-    finish(&world, &run, before, &driven)
+    finish(&world, run, before, &driven)
 }
 
 /// How a run is named in its summary, and where its final state goes.
@@ -269,8 +287,8 @@ impl<V: Vector> Before<V> {
 /// `carom run --ranks N`: the split run of `mpirun -np N`, with the ranks as threads of this
 /// process talking through shared memory. Same decomposition, same messages, same bits.
 fn run_thread_ranks<V: Vector>(
-    scene: Option<Scene<V>>,
     world: World<V>,
+    rebuild: &(dyn Fn() -> Result<World<V>, Failure> + Sync),
     ranks: usize,
     steps: u64,
     outputs: &Outputs,
@@ -278,13 +296,7 @@ fn run_thread_ranks<V: Vector>(
 ) -> Result<(), Failure> {
     let mut worlds = vec![world];
     for _ in 1..ranks {
-        let copy = scene
-            .clone()
-            .ok_or_else(|| Failure::runtime("no scene to copy"))?;
-        worlds.push(
-            copy.into_world()
-                .map_err(|e| Failure::input(format!("{}: {e}", run.origin)))?,
-        );
+        worlds.push(rebuild()?);
     }
     let transports = carom_engine::cluster::ThreadTransport::group(ranks);
     std::thread::scope(|s| {
@@ -324,6 +336,7 @@ fn run_split<V: Vector, T: Transport>(
     } else {
         ProgressBar::hidden()
     };
+    progress.set_position(split.steps_taken());
     let driven = drive(&mut split, steps, outputs, &progress)?;
     progress.finish_and_clear();
     let report = split.report();

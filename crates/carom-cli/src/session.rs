@@ -441,6 +441,10 @@ pub struct ResumeArgs {
     /// Worker threads.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Split the continued run over N ranks, as threads (see `carom run --ranks`); under
+    /// `mpirun` the run is split over its processes anyway.
+    #[arg(long)]
+    pub ranks: Option<usize>,
 }
 
 /// `carom resume`.
@@ -506,20 +510,24 @@ fn resume_scene<V: Vector>(
     }
     scene.particles = particles;
     let name = scene.name.clone();
-    let mut world = scene
-        .into_resumed_world(cp.steps_taken, cp.storage_order.clone())
-        .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
-    let total = outputs.settings.steps;
-    install_interrupt_handler();
-    let before = crate::run::Before::of(&world);
-    let progress = crate::run::progress_bar(total);
-    progress.set_position(world.steps_taken());
-    let driven = drive(&mut world, total, outputs, &progress)?;
-    progress.finish_and_clear();
+    let rebuild = || {
+        scene
+            .clone()
+            .into_resumed_world(cp.steps_taken, cp.storage_order.clone())
+            .map_err(|e| Failure::input(format!("{shown}: {e}")))
+    };
+    let world = rebuild()?;
     let run = crate::run::Labels {
         name: name.as_deref(),
         origin: &shown,
         out: args.out.as_deref(),
     };
-    crate::run::finish(&world, &run, before, &driven)
+    crate::run::run_world(
+        world,
+        &rebuild,
+        args.ranks,
+        outputs.settings.steps,
+        outputs,
+        &run,
+    )
 }

@@ -161,3 +161,57 @@ fn ranks_flag_is_refused_under_mpirun() {
     let out = mpirun(2, &["run", "--steps", "1", "--ranks", "2"]);
     assert_eq!(out.status.code(), Some(2), "{out:?}");
 }
+
+#[test]
+fn resume_under_mpirun_splits_and_matches() {
+    let path = scene("lecture_5000_grid100.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let d = |f: &str| dir.path().join(f).display().to_string();
+    let (straight, ckpt, resumed) = (d("straight.csv"), d("state.ckpt"), d("resumed.csv"));
+    ok(
+        Command::new(CAROM)
+            .args(["run", &path, "--steps", "160", "--out", &straight])
+            .output()
+            .unwrap(),
+        "straight run",
+    );
+    ok(
+        mpirun(
+            2,
+            &[
+                "run",
+                &path,
+                "--steps",
+                "100",
+                "--checkpoint",
+                &ckpt,
+                "--checkpoint-every",
+                "50",
+            ],
+        ),
+        "2-rank run to step 100",
+    );
+    let summary = ok(
+        mpirun(4, &["resume", &ckpt, "--steps", "160", "--out", &resumed]),
+        "4-rank resume",
+    );
+    assert!(summary.contains("ranks       4"), "{summary}");
+    assert_eq!(
+        std::fs::read(&resumed).unwrap(),
+        std::fs::read(&straight).unwrap()
+    );
+}
+
+#[test]
+fn other_commands_refuse_to_run_on_many_ranks() {
+    let out = mpirun(2, &["bench", "--quick"]);
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        stderr
+            .matches("only `carom run` and `carom resume`")
+            .count(),
+        1,
+        "{stderr}"
+    );
+}
