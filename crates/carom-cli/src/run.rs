@@ -241,7 +241,7 @@ pub fn run_world<V: Vector>(
                     "--ranks: not under mpirun, where the ranks are mpirun's processes",
                 ));
             }
-            return run_split(world, mpi.transport(), steps, outputs, run);
+            return run_split(world, mpi.transport(), true, steps, outputs, run);
         }
     }
     match ranks {
@@ -304,7 +304,7 @@ fn run_thread_ranks<V: Vector>(
             .into_iter()
             .zip(transports)
             .map(|(world, transport)| {
-                s.spawn(move || run_split(world, transport, steps, outputs, run))
+                s.spawn(move || run_split(world, transport, false, steps, outputs, run))
             })
             .collect();
         let mut results = handles.into_iter().map(|h| {
@@ -321,15 +321,19 @@ fn run_thread_ranks<V: Vector>(
 
 /// A run split over ranks (MPI processes or threads): every output written by rank 0 from the
 /// gathered state, the same files a single process writes.
-fn run_split<V: Vector, T: Transport>(
+///
+/// `on_pool`: step on a rayon pool thread (one rank per process). Thread ranks must not: they
+/// would wait for each other in collectives while queued behind each other for the pool.
+fn run_split<V: Vector, T: Transport + Send>(
     world: World<V>,
     transport: T,
+    on_pool: bool,
     steps: u64,
     outputs: &Outputs,
     run: &Labels,
 ) -> Result<(), Failure> {
     let before = Before::of(&world);
-    let mut split = crate::cluster::Split::new(world, transport)
+    let mut split = crate::cluster::Split::new(world, transport, on_pool)
         .map_err(|e| Failure::input(format!("{}: {e}", run.origin)))?;
     let progress = if split.rank() == 0 {
         progress_bar(steps)

@@ -3,8 +3,9 @@
 //! `MPI_Allgather`/`MPI_Alltoall` of the byte counts).
 
 use carom_engine::cluster::Transport;
+use mpi::collective::SystemOperation;
 use mpi::datatype::{Partition, PartitionMut};
-use mpi::environment::Universe;
+use mpi::environment::{Threading, Universe};
 use mpi::topology::{Communicator, SimpleCommunicator};
 use mpi::traits::*;
 use mpi::Count;
@@ -15,7 +16,9 @@ static UNIVERSE: Mutex<Option<Universe>> = Mutex::new(None);
 
 /// Initialises MPI (a world of one rank when not started by `mpirun`). Call once, first.
 pub fn start() {
-    if let Some(universe) = mpi::initialize() {
+    // Serialized: the step loop runs on a rayon pool thread (see `Split::run_loop`), one MPI
+    // call at a time.
+    if let Some((universe, _)) = mpi::initialize_with_threading(Threading::Serialized) {
         *UNIVERSE.lock().unwrap_or_else(PoisonError::into_inner) = Some(universe);
     }
 }
@@ -70,6 +73,11 @@ impl Mpi {
 pub struct MpiTransport {
     world: SimpleCommunicator,
 }
+
+// SAFETY: MPI runs at MPI_THREAD_SERIALIZED (see `start`), which allows calls from any thread
+// as long as no two overlap. A transport has one owner, which moves it to the thread that runs
+// the step loop and calls it from there only; nothing else in the process calls MPI meanwhile.
+unsafe impl Send for MpiTransport {}
 
 fn displacements(counts: &[Count]) -> Vec<Count> {
     counts
@@ -131,6 +139,12 @@ impl Transport for MpiTransport {
                 .all_gather_varcount_into(&send[..], &mut partition);
         }
         split(&received, &counts)
+    }
+
+    fn all_sum(&mut self, values: &mut [u64]) {
+        let mine = values.to_vec();
+        self.world
+            .all_reduce_into(&mine[..], values, SystemOperation::sum());
     }
 
     fn all_to_all(&mut self, outgoing: Vec<Vec<u8>>) -> Vec<Vec<u8>> {

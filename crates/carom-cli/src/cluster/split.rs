@@ -12,17 +12,24 @@ pub struct Split<V: Vector, T: Transport> {
     transport: T,
     world: World<V>,
     gathered_at: Option<u64>,
+    on_pool: bool,
 }
 
 impl<V: Vector, T: Transport> Split<V, T> {
-    /// Splits `world` (built the same way on every rank).
-    pub fn new(world: World<V>, transport: T) -> Result<Self, carom_engine::EngineError> {
+    /// Splits `world` (built the same way on every rank). `on_pool`: run the step loop on a
+    /// rayon pool thread, which only a process holding one rank may do.
+    pub fn new(
+        world: World<V>,
+        transport: T,
+        on_pool: bool,
+    ) -> Result<Self, carom_engine::EngineError> {
         let part = Subdomain::new(&world, transport.rank(), transport.size())?;
         Ok(Self {
             part,
             transport,
             world,
             gathered_at: None,
+            on_pool,
         })
     }
 
@@ -103,7 +110,7 @@ impl Report {
     }
 }
 
-impl<V: Vector, T: Transport> Stepper<V> for Split<V, T> {
+impl<V: Vector, T: Transport + Send> Stepper<V> for Split<V, T> {
     fn step(&mut self) -> StepStats {
         self.part.step(&mut self.transport)
     }
@@ -137,7 +144,12 @@ impl<V: Vector, T: Transport> Stepper<V> for Split<V, T> {
     }
 
     fn run_loop(&mut self, work: impl FnOnce(&mut Self) + Send) {
-        // On this thread: MPI is called from the thread that started it.
-        work(self)
+        if self.on_pool {
+            // As for one world: parallel calls from outside the pool would hand every one of
+            // them to a worker and wait (two context switches each).
+            rayon::scope(|_| work(self));
+        } else {
+            work(self);
+        }
     }
 }

@@ -14,6 +14,23 @@ pub trait Transport {
     /// Sends `outgoing[r]` to rank `r` (`outgoing.len() == size()`); returns what every rank
     /// sent to this one, indexed by sender.
     fn all_to_all(&mut self, outgoing: Vec<Vec<u8>>) -> Vec<Vec<u8>>;
+    /// Replaces `values` (the same length on every rank) with their sums over all ranks. The
+    /// solver calls this once per sweep, so a transport with a cheaper reduction than
+    /// [`Transport::all_gather`] (MPI's `MPI_Allreduce`) should provide it.
+    fn all_sum(&mut self, values: &mut [u64]) {
+        let mut mine = Vec::with_capacity(values.len() * 8);
+        for v in values.iter() {
+            mine.extend_from_slice(&v.to_le_bytes());
+        }
+        values.fill(0);
+        for bytes in self.all_gather(&mine) {
+            for (v, word) in values.iter_mut().zip(bytes.chunks_exact(8)) {
+                let mut w = [0u8; 8];
+                w.copy_from_slice(word);
+                *v += u64::from_le_bytes(w);
+            }
+        }
+    }
 }
 
 /// Ranks as threads of one process: a [`Transport`] for tests and for checking the
