@@ -18,9 +18,10 @@ fn scene(name: &str) -> String {
 }
 
 /// `mpirun -np ranks carom args...`, allowed as root and with more ranks than cores (CI
-/// machines have two).
+/// machines have two). A run that deadlocks fails after three minutes instead of hanging CI
+/// (a guard against hangs, not a speed check: these runs take seconds).
 fn mpirun(ranks: usize, args: &[&str]) -> Output {
-    Command::new("mpirun")
+    let mut child = Command::new("mpirun")
         .args([
             "--allow-run-as-root",
             "--oversubscribe",
@@ -29,9 +30,23 @@ fn mpirun(ranks: usize, args: &[&str]) -> Output {
             CAROM,
         ])
         .args(args)
-        .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
-        .output()
-        .expect("mpirun starts (install Open MPI: apt-get install openmpi-bin libopenmpi-dev)")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("mpirun starts (install Open MPI: apt-get install openmpi-bin libopenmpi-dev)");
+    let started = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed() > std::time::Duration::from_secs(180) {
+            let _ = Command::new("kill")
+                .args(["-TERM", &child.id().to_string()])
+                .status();
+            std::thread::sleep(std::time::Duration::from_secs(2));
+            let _ = child.kill();
+            panic!("mpirun -np {ranks} carom {args:?} did not finish in three minutes");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
 }
 
 fn ok(out: Output, what: &str) -> String {

@@ -5,17 +5,33 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// Runs carom; a split run that deadlocks fails the test after two minutes instead of hanging
+/// CI (a guard against hangs, not a speed check: these runs take about a second).
 fn carom(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_carom"))
-        .args(args)
-        .output()
-        .expect("carom starts");
+    let out = run_guarded(Command::new(env!("CARGO_BIN_EXE_carom")).args(args));
     assert!(
         out.status.success(),
         "carom {args:?} failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn run_guarded(command: &mut Command) -> std::process::Output {
+    let mut child = command
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("carom starts");
+    let started = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed() > std::time::Duration::from_secs(120) {
+            child.kill().unwrap();
+            panic!("carom {command:?} did not finish in two minutes (deadlock?)");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
 }
 
 fn scene(name: &str) -> String {
@@ -118,10 +134,9 @@ fn a_split_runs_checkpoint_resumes_in_one_process() {
 
 #[test]
 fn zero_ranks_is_refused() {
-    let out = Command::new(env!("CARGO_BIN_EXE_carom"))
-        .args(["run", "--steps", "1", "--ranks", "0"])
-        .output()
-        .unwrap();
+    let out = run_guarded(
+        Command::new(env!("CARGO_BIN_EXE_carom")).args(["run", "--steps", "1", "--ranks", "0"]),
+    );
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--ranks"));
 }
