@@ -411,6 +411,64 @@ pub(crate) fn solve_velocities<V: Vector, E: Exchange<V>>(
     solve
 }
 
+/// This step's contacts, planned into blocks.
+pub(crate) struct Contacts<'a, V> {
+    pub pairs: &'a [Pair],
+    pub plane_contacts: &'a [PlaneContact],
+    pub planes: &'a [Plane<V>],
+    pub blocks: &'a Blocks,
+}
+
+/// One step's contact resolution with `config`'s settings: the velocity phase, then the
+/// position phase.
+pub(crate) fn resolve<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    config: &crate::world::WorldConfig<V>,
+    particles: &mut crate::particles::Particles<V>,
+    contacts: Contacts<V>,
+) -> VelocitySolve {
+    let crate::particles::Particles {
+        position,
+        velocity,
+        radius,
+        mass,
+    } = particles;
+    let Contacts {
+        pairs,
+        plane_contacts,
+        planes,
+        blocks,
+    } = contacts;
+    let solve = solve_velocities(
+        exchange,
+        &Bodies {
+            position,
+            radius,
+            mass,
+        },
+        velocity,
+        pairs,
+        plane_contacts,
+        planes,
+        blocks,
+        config.restitution,
+        config.effective_resting_speed(),
+        config.velocity_iterations,
+    );
+    separate(
+        exchange,
+        position,
+        radius,
+        mass,
+        pairs,
+        plane_contacts,
+        planes,
+        blocks,
+        config.position_iterations,
+    );
+    solve
+}
+
 /// Moves one overlapping pair apart down to the slop; returns whether it moved them.
 #[inline]
 fn separate_pair<V: Vector>(xi: &mut V, xj: &mut V, ri: f64, rj: f64, mi: f64, mj: f64) -> bool {

@@ -21,7 +21,7 @@ use crate::grid::{bounding_box, Grid, GridLayout};
 use crate::hash::SpatialHash;
 use crate::particles::Particles;
 use crate::plane::{check_restitution, Plane};
-use crate::solver::{self, Alone, Blocks, Bodies, PlaneContact};
+use crate::solver::{self, Alone, Blocks, Contacts, PlaneContact};
 use crate::vector::Vector;
 use rayon::prelude::*;
 use std::cell::OnceCell;
@@ -60,6 +60,14 @@ pub struct WorldConfig<V> {
     /// gravity, where every contact follows the lecture's formula exactly). `Some(0.0)` turns
     /// this off. Restitution 1 always bounces, so energy stays exact.
     pub resting_speed: Option<f64>,
+}
+
+impl<V: Vector> WorldConfig<V> {
+    /// [`WorldConfig::resting_speed`], or its default `2 |g| dt`.
+    pub fn effective_resting_speed(&self) -> f64 {
+        self.resting_speed
+            .unwrap_or(2.0 * self.gravity.length_squared().sqrt() * self.dt)
+    }
 }
 
 impl<V: Vector> Default for WorldConfig<V> {
@@ -487,42 +495,16 @@ impl<V: Vector> World<V> {
             0,
         );
 
-        let resting_speed = self
-            .config
-            .resting_speed
-            .unwrap_or(2.0 * self.config.gravity.length_squared().sqrt() * dt);
-        let Particles {
-            position,
-            velocity,
-            radius,
-            mass,
-        } = &mut self.store;
-        let solve = solver::solve_velocities(
+        let solve = solver::resolve(
             &mut Alone,
-            &Bodies {
-                position,
-                radius,
-                mass,
+            &self.config,
+            &mut self.store,
+            Contacts {
+                pairs: &self.pairs,
+                plane_contacts: &self.plane_contacts,
+                planes: &self.planes,
+                blocks: &self.blocks,
             },
-            velocity,
-            &self.pairs,
-            &self.plane_contacts,
-            &self.planes,
-            &self.blocks,
-            self.config.restitution,
-            resting_speed,
-            self.config.velocity_iterations,
-        );
-        solver::separate(
-            &mut Alone,
-            position,
-            radius,
-            mass,
-            &self.pairs,
-            &self.plane_contacts,
-            &self.planes,
-            &self.blocks,
-            self.config.position_iterations,
         );
         self.steps += 1;
         StepStats {

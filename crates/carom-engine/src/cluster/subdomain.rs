@@ -7,10 +7,10 @@ use crate::broadphase::{BroadPhase, Pair, PARALLEL_MIN};
 use crate::diagnostics::StepStats;
 use crate::domain::Aabb;
 use crate::error::EngineError;
-use crate::grid::{bounding_box, widened_reach, Grid};
+use crate::grid::{bounding_box, widened_reach, Grid, GridLayout};
 use crate::particles::Particles;
 use crate::plane::Plane;
-use crate::solver::{self, pair_mut, Blocks, Bodies, Body, Exchange, PlaneContact};
+use crate::solver::{self, pair_mut, Blocks, Body, Contacts, Exchange, PlaneContact};
 use crate::vector::Vector;
 use crate::world::REORDER_INTERVAL;
 use crate::world::{block_size, sort_layout, Snapshot, World, WorldConfig};
@@ -170,10 +170,7 @@ pub struct Subdomain<V: Vector> {
     /// Slots borrowed from the next rank (its first block), stored after the own ones.
     halo: usize,
     /// Own slots, then the borrowed ones.
-    position: Vec<V>,
-    velocity: Vec<V>,
-    radius: Vec<f64>,
-    mass: Vec<f64>,
+    window: Particles<V>,
     /// Id in each own slot.
     ids: Vec<u32>,
     /// Largest radius of the whole world (radii never change).
@@ -231,8 +228,10 @@ impl<V: Vector> Subdomain<V> {
             let layout = sort_layout(&bounds, store.max_radius(), n);
             let mut keyed: Vec<(u64, u32)> = (0..n)
                 .map(|s| {
-                    let key = layout.linear(layout.cell_coords(store.position[s])) as u64;
-                    ((key << 32) | world.ids[s] as u64, s as u32)
+                    (
+                        sort_value(&layout, store.position[s], world.ids[s]),
+                        s as u32,
+                    )
                 })
                 .collect();
             keyed.sort_unstable();
@@ -257,10 +256,12 @@ impl<V: Vector> Subdomain<V> {
             first_slot: slots.start,
             own: slots.len(),
             halo,
-            position: window(&store.position),
-            velocity: window(&store.velocity),
-            radius: window_f64(&store.radius),
-            mass: window_f64(&store.mass),
+            window: Particles {
+                position: window(&store.position),
+                velocity: window(&store.velocity),
+                radius: window_f64(&store.radius),
+                mass: window_f64(&store.mass),
+            },
             ids: ids.iter().map(|&s| world.ids[s as usize]).collect(),
             max_radius: store.max_radius(),
             // Every broad phase finds the same pairs, so each rank may pick the one that suits
@@ -325,10 +326,10 @@ impl<V: Vector> Subdomain<V> {
         for s in 0..self.own {
             outgoing[0]
                 .u32(self.ids[s])
-                .vector(self.position[s])
-                .vector(self.velocity[s])
-                .f64(self.radius[s])
-                .f64(self.mass[s]);
+                .vector(self.window.position[s])
+                .vector(self.window.velocity[s])
+                .f64(self.window.radius[s])
+                .f64(self.window.mass[s]);
         }
         let rank = transport.rank();
         let received = Link {
@@ -371,9 +372,9 @@ impl<V: Vector> Subdomain<V> {
         }
         let dt = self.config.dt;
         let dv = self.config.gravity * dt;
-        for (x, v) in self.position[..self.own]
+        for (x, v) in self.window.position[..self.own]
             .iter_mut()
-            .zip(&mut self.velocity[..self.own])
+            .zip(&mut self.window.velocity[..self.own])
         {
             *v += dv;
             *x += *v * dt;
@@ -390,10 +391,6 @@ impl<V: Vector> Subdomain<V> {
             self.partition.blocks_of(self.rank).start,
         );
         let leftovers = Leftovers::gather(link, self);
-        let resting_speed = self
-            .config
-            .resting_speed
-            .unwrap_or(2.0 * self.config.gravity.length_squared().sqrt() * dt);
         let mut exchange = Lender {
             link,
             partition: &self.partition,
@@ -405,32 +402,16 @@ impl<V: Vector> Subdomain<V> {
             lending: self.lending,
             leftovers: &leftovers,
         };
-        let solve = solver::solve_velocities(
+        let solve = solver::resolve(
             &mut exchange,
-            &Bodies {
-                position: &self.position,
-                radius: &self.radius,
-                mass: &self.mass,
+            &self.config,
+            &mut self.window,
+            Contacts {
+                pairs: &self.pairs,
+                plane_contacts: &self.plane_contacts,
+                planes: &self.planes,
+                blocks: &self.blocks,
             },
-            &mut self.velocity,
-            &self.pairs,
-            &self.plane_contacts,
-            &self.planes,
-            &self.blocks,
-            self.config.restitution,
-            resting_speed,
-            self.config.velocity_iterations,
-        );
-        solver::separate(
-            &mut exchange,
-            &mut self.position,
-            &self.radius,
-            &self.mass,
-            &self.pairs,
-            &self.plane_contacts,
-            &self.planes,
-            &self.blocks,
-            self.config.position_iterations,
         );
         self.steps += 1;
         let counts = link.sum(&[self.pairs.len() as u64, self.plane_contacts.len() as u64]);
@@ -456,7 +437,7 @@ impl<V: Vector> Subdomain<V> {
             None => {
                 let mut w = Writer::default();
                 if own > 0 {
-                    let b = bounding_box(&self.position[..own]);
+                    let b = bounding_box(&self.window.position[..own]);
                     w.vector(b.min).vector(b.max);
                 }
                 let boxes = link.gather(TrafficKind::Reductions, &w.0);
@@ -479,12 +460,12 @@ impl<V: Vector> Subdomain<V> {
             }
         };
         let layout = sort_layout(&bounds, self.max_radius, n);
-        // The new order is by cell, ties by id, exactly as World's counting sort: sort by
-        // `cell << 32 | id`, a unique 64-bit value per particle.
         let mut order: Vec<(u64, u32)> = (0..own)
             .map(|s| {
-                let key = layout.linear(layout.cell_coords(self.position[s])) as u64;
-                ((key << 32) | self.ids[s] as u64, s as u32)
+                (
+                    sort_value(&layout, self.window.position[s], self.ids[s]),
+                    s as u32,
+                )
             })
             .collect();
         order.sort_unstable();
@@ -496,10 +477,10 @@ impl<V: Vector> Subdomain<V> {
             let s = s as usize;
             outgoing[splits.partition_point(|&split| split <= value)]
                 .u64(value)
-                .vector(self.position[s])
-                .vector(self.velocity[s])
-                .f64(self.radius[s])
-                .f64(self.mass[s]);
+                .vector(self.window.position[s])
+                .vector(self.window.velocity[s])
+                .f64(self.window.radius[s])
+                .f64(self.window.mass[s]);
         }
         let mut arrived: Vec<(u64, V, V, f64, f64)> = Vec::with_capacity(own);
         for bytes in link.exchange(TrafficKind::Migration, outgoing) {
@@ -512,10 +493,10 @@ impl<V: Vector> Subdomain<V> {
         debug_assert_eq!(arrived.len(), own, "a rank keeps its slot count");
         for (s, (value, x, v, radius, mass)) in arrived.into_iter().enumerate() {
             self.ids[s] = value as u32;
-            self.position[s] = x;
-            self.velocity[s] = v;
-            self.radius[s] = radius;
-            self.mass[s] = mass;
+            self.window.position[s] = x;
+            self.window.velocity[s] = v;
+            self.window.radius[s] = radius;
+            self.window.mass[s] = mass;
         }
     }
 
@@ -614,7 +595,7 @@ impl<V: Vector> Subdomain<V> {
         let reach = 2.0 * self.max_radius;
         let mut mine = Writer::default();
         if own > 0 {
-            let b = bounding_box(&self.position[..own]);
+            let b = bounding_box(&self.window.position[..own]);
             let mut min = [0.0; 3];
             let mut max = [0.0; 3];
             for a in 0..V::DIM {
@@ -633,12 +614,12 @@ impl<V: Vector> Subdomain<V> {
             let (min, max): (V, V) = (r.vector(), r.vector());
             let w = &mut outgoing[to];
             for s in 0..own {
-                let x = self.position[s];
+                let x = self.window.position[s];
                 if (0..V::DIM).all(|a| x.get(a) >= min.get(a) && x.get(a) <= max.get(a)) {
                     w.u32((self.first_slot + s) as u32)
                         .vector(x)
-                        .f64(self.radius[s])
-                        .f64(self.mass[s]);
+                        .f64(self.window.radius[s])
+                        .f64(self.window.mass[s]);
                 }
             }
         }
@@ -646,9 +627,10 @@ impl<V: Vector> Subdomain<V> {
         // ghosts: those out of reach keep stale values, which no contact will read.
         self.search_position.clear();
         self.search_position
-            .extend_from_slice(&self.position[..own]);
+            .extend_from_slice(&self.window.position[..own]);
         self.search_radius.clear();
-        self.search_radius.extend_from_slice(&self.radius[..own]);
+        self.search_radius
+            .extend_from_slice(&self.window.radius[..own]);
         self.ghost_slot.clear();
         let first = self.first_slot;
         let borrowed = first + own..first + own + self.halo;
@@ -658,7 +640,11 @@ impl<V: Vector> Subdomain<V> {
                 let (slot, x, radius, mass) = (r.u32(), r.vector(), r.f64(), r.f64());
                 if borrowed.contains(&(slot as usize)) {
                     let w = slot as usize - first;
-                    (self.position[w], self.radius[w], self.mass[w]) = (x, radius, mass);
+                    (
+                        self.window.position[w],
+                        self.window.radius[w],
+                        self.window.mass[w],
+                    ) = (x, radius, mass);
                 }
                 self.ghost_slot.push(slot);
                 self.search_position.push(x);
@@ -687,12 +673,18 @@ impl<V: Vector> Subdomain<V> {
         self.plane_contacts.clear();
         for s in 0..own {
             for (p, plane) in self.planes.iter().enumerate() {
-                if plane.signed_distance(self.position[s]) < self.radius[s] {
+                if plane.signed_distance(self.window.position[s]) < self.window.radius[s] {
                     self.plane_contacts.push((s as u32, p as u32));
                 }
             }
         }
     }
+}
+
+/// Where a particle goes in the storage order: by cell of the sort grid, ties by id, exactly
+/// as [`World`]'s counting sort orders them; unique per particle.
+fn sort_value<V: Vector>(layout: &GridLayout, x: V, id: u32) -> u64 {
+    ((layout.linear(layout.cell_coords(x)) as u64) << 32) | id as u64
 }
 
 /// The rank that borrows `rank`'s first block (in the sweeps of `parity`, or at all when
@@ -754,9 +746,9 @@ impl<V: Vector> Leftovers<V> {
             let mut w = Writer::default();
             for &s in &slots[own.clone()] {
                 let s = (s - first) as usize;
-                w.vector(sub.position[s])
-                    .f64(sub.radius[s])
-                    .f64(sub.mass[s]);
+                w.vector(sub.window.position[s])
+                    .f64(sub.window.radius[s])
+                    .f64(sub.window.mass[s]);
             }
             for bytes in link.gather(TrafficKind::Leftovers, &w.0) {
                 let mut r = Reader::new(&bytes);
