@@ -4,6 +4,8 @@
 //! writes.
 #![cfg(feature = "mpi")]
 
+mod support;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -18,35 +20,20 @@ fn scene(name: &str) -> String {
 }
 
 /// `mpirun -np ranks carom args...`, allowed as root and with more ranks than cores (CI
-/// machines have two). A run that deadlocks fails after three minutes instead of hanging CI
-/// (a guard against hangs, not a speed check: these runs take seconds).
+/// machines have two). A deadlocked run fails the test after three minutes.
 fn mpirun(ranks: usize, args: &[&str]) -> Output {
-    let mut child = Command::new("mpirun")
-        .args([
-            "--allow-run-as-root",
-            "--oversubscribe",
-            "-np",
-            &ranks.to_string(),
-            CAROM,
-        ])
-        .args(args)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("mpirun starts (install Open MPI: apt-get install openmpi-bin libopenmpi-dev)");
-    let started = std::time::Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if started.elapsed() > std::time::Duration::from_secs(180) {
-            let _ = Command::new("kill")
-                .args(["-TERM", &child.id().to_string()])
-                .status();
-            std::thread::sleep(std::time::Duration::from_secs(2));
-            let _ = child.kill();
-            panic!("mpirun -np {ranks} carom {args:?} did not finish in three minutes");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
+    support::run_guarded(
+        Command::new("mpirun")
+            .args([
+                "--allow-run-as-root",
+                "--oversubscribe",
+                "-np",
+                &ranks.to_string(),
+                CAROM,
+            ])
+            .args(args),
+        std::time::Duration::from_secs(180),
+    )
 }
 
 fn ok(out: Output, what: &str) -> String {

@@ -2,11 +2,12 @@
 //! output) with the ranks as threads. Every output file must be byte-identical to the one a
 //! single process writes, and a checkpoint from a split run must resume in a single process.
 
+mod support;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// Runs carom; a split run that deadlocks fails the test after two minutes instead of hanging
-/// CI (a guard against hangs, not a speed check: these runs take about a second).
+/// Runs carom (a deadlocked split run fails the test after two minutes).
 fn carom(args: &[&str]) -> String {
     let out = run_guarded(Command::new(env!("CARGO_BIN_EXE_carom")).args(args));
     assert!(
@@ -18,20 +19,7 @@ fn carom(args: &[&str]) -> String {
 }
 
 fn run_guarded(command: &mut Command) -> std::process::Output {
-    let mut child = command
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("carom starts");
-    let started = std::time::Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if started.elapsed() > std::time::Duration::from_secs(120) {
-            child.kill().unwrap();
-            panic!("carom {command:?} did not finish in two minutes (deadlock?)");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
+    support::run_guarded(command, std::time::Duration::from_secs(120))
 }
 
 fn scene(name: &str) -> String {
