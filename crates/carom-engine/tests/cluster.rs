@@ -1,33 +1,16 @@
 //! The decomposition over ranks gives the very bits of one world: ranks run as threads here
 //! (the `carom` binary's MPI runs are tested in carom-cli).
 
+mod support;
+use support::Lcg;
+
 use carom_engine::cluster::{Subdomain, ThreadTransport, TrafficKind};
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::{Aabb, BroadPhaseKind, Snapshot, Vector, World, WorldBuilder};
 
-/// A small deterministic generator (PCG constants, top 53 bits).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-    fn vector<V: Vector>(&mut self, lo: f64, hi: f64) -> V {
-        let c = [self.range(lo, hi), self.range(lo, hi), self.range(lo, hi)];
-        V::from_slice(&c)
-    }
-}
-
 /// `n` particles in `(-half, half)^DIM`, every fifth of radius `big`, the rest radius 1.
 fn scene<V: Vector>(n: usize, half: f64, big: f64, seed: u64) -> WorldBuilder<V> {
-    let mut rng = Lcg(seed);
+    let mut rng = Lcg::new(seed);
     let mut b = World::<V>::builder();
     for i in 0..n {
         let r = if i % 5 == 0 { big } else { 1.0 };

@@ -1,31 +1,11 @@
 //! Determinism: the trajectory is a function of the scene alone, not of the broad phase, the
 //! grid resolution, the number of threads, or whether the run was restarted from a snapshot.
 
+mod support;
+use support::Lcg;
+
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::{Aabb, BroadPhaseKind, Vector, World, WorldBuilder};
-
-/// A small deterministic generator (PCG constants, top 53 bits) so scenes need no `rand`.
-struct Lcg(u64);
-
-impl Lcg {
-    fn new(seed: u64) -> Self {
-        Self(seed ^ 0x9e37_79b9_7f4a_7c15)
-    }
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-    fn vector<V: Vector>(&mut self, lo: f64, hi: f64) -> V {
-        let c = [self.range(lo, hi), self.range(lo, hi), self.range(lo, hi)];
-        V::from_slice(&c)
-    }
-}
 
 /// One particle: position, velocity, radius, mass.
 type Body<V> = (V, V, f64, f64);

@@ -3,37 +3,15 @@
 //! Every scene is deterministic (a small LCG places and launches the particles), so a failure
 //! reproduces exactly.
 
+mod support;
+use support::Lcg;
+
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::{Aabb, BroadPhaseKind, Plane, Vector, World, WorldBuilder};
 
 // ---------------------------------------------------------------------------------------------
 // helpers
 // ---------------------------------------------------------------------------------------------
-
-/// A small deterministic generator (PCG constants, top 53 bits) so scenes need no `rand`.
-struct Lcg(u64);
-
-impl Lcg {
-    fn new(seed: u64) -> Self {
-        Self(seed ^ 0x9e37_79b9_7f4a_7c15)
-    }
-    /// Uniform in [0, 1).
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    /// Uniform in [lo, hi).
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
-    }
-    fn vector<V: Vector>(&mut self, lo: f64, hi: f64) -> V {
-        let c = [self.range(lo, hi), self.range(lo, hi), self.range(lo, hi)];
-        V::from_slice(&c)
-    }
-}
 
 /// `n` centres on a jittered cubic lattice of spacing `spacing` (> 2 r), centred on the origin,
 /// with jitter small enough that no two discs/spheres of radius `r` overlap.

@@ -1,0 +1,30 @@
+//! Shared by the engine's integration tests.
+
+use carom_engine::Vector;
+
+/// A small deterministic generator (PCG constants, top 53 bits) so scenes need no `rand` and
+/// every failure reproduces exactly.
+pub struct Lcg(u64);
+
+impl Lcg {
+    pub fn new(seed: u64) -> Self {
+        Self(seed ^ 0x9e37_79b9_7f4a_7c15)
+    }
+    /// Uniform in [0, 1).
+    pub fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Uniform in [lo, hi).
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+    /// Each component uniform in [lo, hi).
+    pub fn vector<V: Vector>(&mut self, lo: f64, hi: f64) -> V {
+        let c = [self.range(lo, hi), self.range(lo, hi), self.range(lo, hi)];
+        V::from_slice(&c)
+    }
+}
