@@ -171,3 +171,44 @@ fn traffic_is_counted_by_kind() {
         }
     });
 }
+
+mod random_scenes {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A random scene: 2100-4000 particles (at least three solver blocks in 2D), radii 1 and
+    /// `big`, any restitution, gravity and walls or neither (an open cloud with the hash).
+    fn build<V: Vector>(n: usize, big: f64, k: f64, walled_box: bool, seed: u64) -> World<V> {
+        let half = 2.6 * (n as f64).powf(1.0 / V::DIM as f64);
+        let b = scene::<V>(n, half, big, seed).restitution(k);
+        let b = if walled_box {
+            b.dt(0.005)
+                .gravity(V::from_slice(&[0.0, -9.81, 0.0]))
+                .domain(Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap())
+                .walls(0.7)
+        } else {
+            b.dt(0.004).broad_phase(BroadPhaseKind::Hash)
+        };
+        b.build().unwrap()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 6, ..ProptestConfig::default() })]
+
+        #[test]
+        fn any_2d_scene_is_bit_identical_on_any_rank_count(
+            n in 2100usize..4000, big in 1.0f64..3.0, k in 0.0f64..=1.0, walled_box: bool,
+            seed in 0u64..1000, ranks in 2usize..=4, steps in 20u64..50,
+        ) {
+            check_identical(|| build::<DVec2>(n, big, k, walled_box, seed), steps, &[ranks]);
+        }
+
+        #[test]
+        fn any_3d_scene_is_bit_identical_on_any_rank_count(
+            n in 2100usize..4000, big in 1.0f64..2.0, k in 0.0f64..=1.0, walled_box: bool,
+            seed in 0u64..1000, ranks in 2usize..=3, steps in 20u64..40,
+        ) {
+            check_identical(|| build::<DVec3>(n, big, k, walled_box, seed), steps, &[ranks]);
+        }
+    }
+}
