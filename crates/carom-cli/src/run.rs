@@ -338,6 +338,10 @@ fn run_split<V: Vector, T: Transport + Send>(
     let progress = if split.rank() == 0 {
         progress_bar(steps)
     } else {
+        if on_pool {
+            // its own process: rank 0 speaks for the job
+            crate::session::quiet_interrupts();
+        }
         ProgressBar::hidden()
     };
     progress.set_position(split.steps_taken());

@@ -42,11 +42,22 @@ pub fn install_interrupt_handler() {
         if STOP.swap(true, Ordering::SeqCst) {
             quit_at_once();
         }
-        eprintln!(
-            "carom: interrupted: stopping after this step and writing what was asked for \
-             (interrupt again to quit at once)"
-        );
+        if !QUIET.load(Ordering::SeqCst) {
+            eprintln!(
+                "carom: interrupted: stopping after this step and writing what was asked for \
+                 (interrupt again to quit at once)"
+            );
+        }
     });
+}
+
+/// Set on the ranks of a split run other than rank 0: `mpirun` passes a Ctrl-C to every rank,
+/// and one notice is enough.
+static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// Keeps this process's interrupt notices to itself (see [`QUIET`]).
+pub fn quiet_interrupts() {
+    QUIET.store(true, Ordering::SeqCst);
 }
 
 /// The second interrupt: leave only whole files and exit with [`INTERRUPTED`].

@@ -217,3 +217,85 @@ fn other_commands_refuse_to_run_on_many_ranks() {
         "{stderr}"
     );
 }
+
+#[test]
+fn ctrl_c_to_mpirun_stops_every_rank_at_one_step_with_a_checkpoint() {
+    let path = scene("lecture_5000_grid100.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let ckpt = dir.path().join("state.ckpt");
+    let mut child = Command::new("mpirun")
+        .args(["--allow-run-as-root", "--oversubscribe", "-np", "2", CAROM])
+        .args(["run", &path, "--steps", "100000000", "--checkpoint"])
+        .arg(&ckpt)
+        .args(["--checkpoint-every", "200"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // the run is under way once its first checkpoint is on disk
+    let started = std::time::Instant::now();
+    while !ckpt.exists() {
+        assert!(
+            started.elapsed().as_secs() < 120,
+            "no checkpoint after two minutes"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let pid = child.id().to_string();
+    assert!(Command::new("kill")
+        .args(["-INT", &pid])
+        .status()
+        .unwrap()
+        .success());
+    let started = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if started.elapsed().as_secs() > 120 {
+            let _ = child.kill();
+            panic!("mpirun did not stop within two minutes of Ctrl-C");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().unwrap();
+    // (mpirun's own status after a Ctrl-C is Open MPI's; the ranks exit with 130)
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.matches("carom: interrupted:").count(), 1, "{stderr}");
+    let at: u64 = stderr
+        .split("interrupted after step ")
+        .nth(1)
+        .and_then(|rest| rest.split(';').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no stop step in: {stderr}"));
+    // the checkpoint holds step `at` on both ranks' behalf: resumed alone, it continues as a
+    // straight single-process run does
+    let target = (at + 37).to_string();
+    let (resumed, straight) = (
+        dir.path().join("resumed.csv"),
+        dir.path().join("straight.csv"),
+    );
+    ok(
+        Command::new(CAROM)
+            .args([
+                "resume",
+                ckpt.to_str().unwrap(),
+                "--steps",
+                &target,
+                "--out",
+            ])
+            .arg(&resumed)
+            .output()
+            .unwrap(),
+        "resume",
+    );
+    ok(
+        Command::new(CAROM)
+            .args(["run", &path, "--steps", &target, "--out"])
+            .arg(&straight)
+            .output()
+            .unwrap(),
+        "straight run",
+    );
+    assert_eq!(
+        std::fs::read(&resumed).unwrap(),
+        std::fs::read(&straight).unwrap()
+    );
+}
