@@ -27,10 +27,10 @@
 //! contact set and the slots alone: the same for any thread count, and the same whichever broad
 //! phase found the contacts. Running the blocks serially gives the very same bits.
 //!
-//! The same order runs across processes ([`crate::cluster`]): each process holds a run of whole
-//! blocks, and an [`Exchange`] lends a neighbour's first block for the block pairs that straddle
-//! the border, runs the leftovers in their global order and adds up the counts that decide when
-//! a phase stops. Alone in one process, [`Alone`] does none of that.
+//! The same order runs across processes ([`crate::cluster`]): each process holds a run of
+//! whole blocks, and an `Exchange` lends it the particles of the next process's first block
+//! that its border block pair touches, runs the leftovers in their global order and adds up
+//! the counts that decide when a phase stops. Alone in one process, `Alone` does none of that.
 
 use crate::broadphase::Pair;
 use crate::plane::Plane;
