@@ -307,7 +307,7 @@ pub struct World<V: Vector> {
     /// Storage slot -> id.
     pub(crate) ids: Vec<u32>,
     /// Id -> storage slot.
-    slots: Vec<u32>,
+    pub(crate) slots: Vec<u32>,
     /// Id-ordered copy, made when asked for and dropped by the next step.
     by_id: OnceCell<Particles<V>>,
     contacts_by_id: OnceCell<Vec<Pair>>,
@@ -354,18 +354,10 @@ struct Sorter {
 }
 
 impl Sorter {
-    /// Sorts the arrays by grid cell, ties by id.
-    fn sort<V: Vector>(
-        &mut self,
-        store: &mut Particles<V>,
-        ids: &mut [u32],
-        slots: &mut [u32],
-        domain: Option<Aabb<V>>,
-    ) {
+    /// Fills `self.order` with the slots of `store` in their sorted order (by grid cell, ties
+    /// by id): new slot `s` takes what is now at slot `order[s]`.
+    fn plan<V: Vector>(&mut self, store: &Particles<V>, slots: &[u32], domain: Option<Aabb<V>>) {
         let n = store.len();
-        if n == 0 {
-            return;
-        }
         let bounds = domain.unwrap_or_else(|| bounding_box(&store.position));
         let layout = sort_layout(&bounds, store.max_radius(), n);
         self.keys.resize(n, 0);
@@ -398,6 +390,21 @@ impl Sorter {
             self.order[*slot as usize] = i;
             *slot += 1;
         }
+    }
+
+    /// Sorts the arrays by grid cell, ties by id.
+    fn sort<V: Vector>(
+        &mut self,
+        store: &mut Particles<V>,
+        ids: &mut [u32],
+        slots: &mut [u32],
+        domain: Option<Aabb<V>>,
+    ) {
+        let n = store.len();
+        if n == 0 {
+            return;
+        }
+        self.plan(store, slots, domain);
         // new slot s takes what was at order[s]: apply by following cycles, all arrays at once.
         self.done.clear();
         self.done.resize(n.div_ceil(64), 0);
@@ -648,6 +655,17 @@ impl<V: Vector> World<V> {
         self.contacts_by_id.take();
         self.pairs.clear();
         Ok(())
+    }
+
+    /// Ids by storage slot as the next spatial sort will leave them (when the next step sorts;
+    /// see [`REORDER_INTERVAL`]), without sorting.
+    pub(crate) fn next_sort_order(&self) -> Vec<u32> {
+        if self.store.is_empty() {
+            return Vec::new();
+        }
+        let mut sorter = Sorter::default();
+        sorter.plan(&self.store, &self.slots, self.config.domain);
+        sorter.order.iter().map(|&s| self.ids[s as usize]).collect()
     }
 
     /// Ids by storage slot: what [`WorldBuilder::resume`] needs to continue this run exactly.

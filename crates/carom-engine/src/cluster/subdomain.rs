@@ -217,35 +217,22 @@ impl<V: Vector> Subdomain<V> {
             partition.block_slots(partition.blocks_of(rank).end).len()
         });
         let store = &world.store;
-        // Which particle sits in each slot. When the first step will sort anyway, sort here,
-        // where every rank has the whole world: that step then finds every particle on its
-        // rank already, instead of moving most of them.
-        let ids: Vec<u32> = if world.steps_taken() % REORDER_INTERVAL == 0 && n > 0 {
-            let bounds = world
-                .config()
-                .domain
-                .unwrap_or_else(|| bounding_box(&store.position));
-            let layout = sort_layout(&bounds, store.max_radius(), n);
-            let mut keyed: Vec<(u64, u32)> = (0..n)
-                .map(|s| {
-                    (
-                        sort_value(&layout, store.position[s], world.ids[s]),
-                        s as u32,
-                    )
-                })
-                .collect();
-            keyed.sort_unstable();
-            keyed[slots.clone()].iter().map(|&(_, s)| s).collect()
+        // The ids in this rank's slots. When the first step will sort anyway, take the order
+        // that sort will give: every rank has the whole world here, so that step then finds
+        // every particle on its rank already, instead of moving most of them.
+        let ids: Vec<u32> = if world.steps_taken() % REORDER_INTERVAL == 0 {
+            world.next_sort_order()[slots.clone()].to_vec()
         } else {
-            (slots.start as u32..slots.end as u32).collect()
+            world.ids[slots.clone()].to_vec()
         };
+        let slot_of = |id: u32| world.slots[id as usize] as usize;
         let window = |v: &[V]| {
-            let mut w: Vec<V> = ids.iter().map(|&s| v[s as usize]).collect();
+            let mut w: Vec<V> = ids.iter().map(|&id| v[slot_of(id)]).collect();
             w.resize(slots.len() + halo, V::ZERO);
             w
         };
         let window_f64 = |v: &[f64]| {
-            let mut w: Vec<f64> = ids.iter().map(|&s| v[s as usize]).collect();
+            let mut w: Vec<f64> = ids.iter().map(|&id| v[slot_of(id)]).collect();
             w.resize(slots.len() + halo, 1.0);
             w
         };
@@ -262,7 +249,7 @@ impl<V: Vector> Subdomain<V> {
                 radius: window_f64(&store.radius),
                 mass: window_f64(&store.mass),
             },
-            ids: ids.iter().map(|&s| world.ids[s as usize]).collect(),
+            ids,
             max_radius: store.max_radius(),
             // Every broad phase finds the same pairs, so each rank may pick the one that suits
             // its share: a grid over its own particles and ghosts, not over the whole domain
