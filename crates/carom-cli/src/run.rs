@@ -241,6 +241,8 @@ pub fn run_world<V: Vector>(
                     "--ranks: not under mpirun, where the ranks are mpirun's processes",
                 ));
             }
+            crate::cluster::mpi::check_gather_size(world.len(), V::DIM)
+                .map_err(|e| Failure::input(format!("{}: {e}", run.origin)))?;
             return run_split(world, mpi.transport(), true, steps, outputs, run);
         }
     }

@@ -69,6 +69,21 @@ impl Mpi {
     }
 }
 
+/// Refuses a split run whose state, gathered on rank 0 for output in one `MPI_Alltoallv`,
+/// would pass the 2 GiB that MPI's `int` counts and offsets can address.
+pub fn check_gather_size(particles: usize, dimensions: usize) -> Result<(), String> {
+    // id, position, velocity, radius, mass
+    let record = 4 + 2 * 8 * dimensions + 16;
+    let most = Count::MAX as usize / record;
+    if particles > most {
+        return Err(format!(
+            "{particles} particles: a split run gathers the whole state on rank 0 in one MPI \
+             message, which holds at most {most} particles in {dimensions}D; run it without mpirun"
+        ));
+    }
+    Ok(())
+}
+
 /// [`Transport`] over `MPI_COMM_WORLD`.
 pub struct MpiTransport {
     world: SimpleCommunicator,
@@ -170,5 +185,15 @@ impl Transport for MpiTransport {
                 .all_to_all_varcount_into(&send_partition, &mut receive_partition);
         }
         split(&received, &receive_counts)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_state_past_2_gib_is_refused_with_the_limit() {
+        assert!(super::check_gather_size(1_000_000, 3).is_ok());
+        let e = super::check_gather_size(40_000_000, 3).unwrap_err();
+        assert!(e.contains("at most 31580641 particles in 3D"), "{e}");
     }
 }
