@@ -5,19 +5,12 @@
 #![cfg(feature = "mpi")]
 
 mod support;
+use support::scene;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 const CAROM: &str = env!("CARGO_BIN_EXE_carom");
-
-fn scene(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../scenes")
-        .join(name)
-        .display()
-        .to_string()
-}
 
 /// `mpirun -np ranks carom args...`, allowed as root and with more ranks than cores (CI
 /// machines have two). A deadlocked run fails the test after three minutes.

@@ -3,6 +3,7 @@
 //! single process writes, and a checkpoint from a split run must resume in a single process.
 
 mod support;
+use support::scene;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -20,14 +21,6 @@ fn carom(args: &[&str]) -> String {
 
 fn run_guarded(command: &mut Command) -> std::process::Output {
     support::run_guarded(command, std::time::Duration::from_secs(120))
-}
-
-fn scene(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../scenes")
-        .join(name)
-        .display()
-        .to_string()
 }
 
 /// Runs `scene` for `steps` with `extra` flags into `dir`, with a final state, a CSV

@@ -1,5 +1,6 @@
 //! Shared by the split-run tests (`ranks.rs`, `mpi.rs`).
 
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -25,4 +26,13 @@ pub fn run_guarded(command: &mut Command, limit: Duration) -> Output {
         std::thread::sleep(Duration::from_millis(20));
     }
     child.wait_with_output().unwrap()
+}
+
+/// The path of a shipped scene file, as a string for an argument list.
+pub fn scene(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name)
+        .display()
+        .to_string()
 }
