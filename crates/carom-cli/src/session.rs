@@ -15,7 +15,7 @@
 //!   finish another file (see [`write_whole`]).
 
 use crate::run::{check_output_path, Failure};
-use carom_engine::{StepStats, Vector, World};
+use carom_engine::{ContactImpulses, StepStats, Vector, World};
 use carom_output::checkpoint::Checkpoint;
 use indicatif::ProgressBar;
 use std::io::{BufWriter, Write};
@@ -340,7 +340,11 @@ pub fn save_checkpoint<V: Vector>(
         velocities: Vec::with_capacity(n * V::DIM),
         radii: Vec::with_capacity(n),
         masses: Vec::with_capacity(n),
+        pair_impulses: Vec::new(),
+        plane_impulses: Vec::new(),
     };
+    let impulses = world.contact_impulses();
+    (cp.pair_impulses, cp.plane_impulses) = (impulses.pairs, impulses.planes);
     for id in 0..n {
         let (x, v, r, m) = world.particle(id);
         cp.positions.extend((0..V::DIM).map(|a| x.get(a)));
@@ -524,7 +528,14 @@ fn resume_scene<V: Vector>(
     let rebuild = || {
         scene
             .clone()
-            .into_resumed_world(cp.steps_taken, cp.storage_order.clone())
+            .into_resumed_world(
+                cp.steps_taken,
+                cp.storage_order.clone(),
+                ContactImpulses {
+                    pairs: cp.pair_impulses.clone(),
+                    planes: cp.plane_impulses.clone(),
+                },
+            )
             .map_err(|e| Failure::input(format!("{shown}: {e}")))
     };
     let world = rebuild()?;

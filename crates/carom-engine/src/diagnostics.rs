@@ -35,9 +35,9 @@ pub fn potential_energy<V: Vector>(particles: &Particles<V>, gravity: V) -> f64 
 /// What one step did and the state it left.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StepStats {
-    /// Overlapping particle pairs found by the broad phase.
+    /// Overlapping particle pairs (the lecture's detection) at the start of the velocity phase.
     pub contacts: usize,
-    /// Particles touching a plane.
+    /// Particles touching a plane at the start of the velocity phase.
     pub plane_contacts: usize,
     /// Velocity sweeps made.
     pub velocity_iterations: u32,
@@ -45,6 +45,10 @@ pub struct StepStats {
     pub responses: u64,
     /// True when the velocity sweeps stopped at the cap with contacts still approaching.
     pub capped: bool,
+    /// The deepest particle-particle overlap left at the end of the step, as a fraction of the
+    /// smaller radius, `(r_i + r_j - |x_i - x_j|) / min(r_i, r_j)`, over this step's contact
+    /// candidates (every pair within reach of each other this step); 0 when nothing overlaps.
+    pub max_overlap: f64,
 }
 
 #[cfg(test)]

@@ -36,6 +36,9 @@ pub enum EngineError {
     /// A plane normal of zero length.
     #[error("plane normal must not be zero")]
     ZeroPlaneNormal,
+    /// Zero substeps.
+    #[error("substeps must be >= 1")]
+    Substeps,
     /// A domain whose min is not below its max on every axis.
     #[error("domain min must be below max on every axis")]
     EmptyDomain,
@@ -50,6 +53,12 @@ pub enum EngineError {
     /// A resume order that is not a permutation of the particle ids.
     #[error("storage order must list every particle id exactly once")]
     StorageOrder,
+    /// Resumed contact impulses that cannot belong to this world.
+    #[error(
+        "contact impulses must name existing particles and planes, once each, with finite \
+         values > 0"
+    )]
+    ContactImpulses,
     /// More particles than ids (u32) can name.
     #[error("too many particles: {0} (at most {max})", max = u32::MAX)]
     TooManyParticles(usize),

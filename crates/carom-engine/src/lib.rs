@@ -12,7 +12,10 @@
 //! | the hash grid (normalise, scale, clamp, floor; buckets; neighbour cells) | [`grid`] |
 //! | brute force, O(n^2) | [`brute`] |
 //! | the grid without a box: an unbounded spatial hash (Teschner et al. 2003) | [`hash`] |
-//! | many simultaneous contacts, pushing trapped particles apart | [`solver`] |
+//! | many simultaneous contacts: impacts, resting impulses, pushing trapped particles apart | [`solver`] |
+//! | resting impulses remembered between steps (warm starting) | [`memory`] |
+//! | the fixed order of contacts on threads and processes | [`schedule`] |
+//! | one step, as the lecture's `ParticleSystem_Movement()` | [`step`] |
 //! | the particle system stepped in time under gravity | [`world`] |
 //! | the same world split over processes (domain decomposition, ghosts) | [`cluster`] |
 //!
@@ -41,10 +44,13 @@ pub mod domain;
 pub mod error;
 pub mod grid;
 pub mod hash;
+pub mod memory;
 pub mod particles;
 pub mod plane;
 pub mod response;
+pub mod schedule;
 pub mod solver;
+pub mod step;
 pub mod vector;
 pub mod world;
 
@@ -53,7 +59,9 @@ pub use diagnostics::StepStats;
 pub use domain::Aabb;
 pub use error::EngineError;
 pub use glam;
+pub use memory::ContactImpulses;
 pub use particles::Particles;
 pub use plane::Plane;
+pub use solver::SolverSettings;
 pub use vector::Vector;
 pub use world::{Snapshot, World, WorldBuilder, WorldConfig};

@@ -1,676 +1,743 @@
-//! Resolving many simultaneous contacts: velocities first, then positions.
+//! Resolving many simultaneous contacts: velocities first, then (after the particles move)
+//! positions.
 //!
-//! Velocity phase (the lecture's response with its trap rule, "solution 2"): sweep the
-//! contacts, responding to each one that is still approaching; repeat until a sweep responds
-//! to nothing or the iteration cap is hit. Each response conserves momentum, and kinetic
-//! energy when `k = 1`, so the sweep does too whatever the cap.
+//! **Velocity phase.** Every contact whose particles overlap (the lecture's detection,
+//! `distance < r1 + r2`) is one of two kinds, decided each time a sweep visits it:
 //!
-//! Position phase (the lecture's "solution 1", which it calls hard with many contacts): move
-//! overlapping particles apart along their normal, each by its share of inverse mass, down to
-//! a small slop, and push particles out of planes. Positions only: velocities are never
-//! touched, so this can never add kinetic energy. Planes go last so a walled box holds its
-//! particles.
+//! - an *impact*: approaching (the lecture's trap rule, `p_rel . v_rel < 0`) at or above the
+//!   resting speed, or any approach when `k = 1`. It takes the lecture's response
+//!   ([`crate::response::collide`]), restitution and all, so an isolated collision is exactly
+//!   the lecture's and Newton's cradle passes its velocity along ball by ball.
+//! - a *resting* contact (slower than the resting speed, `k < 1`): a sequential impulse as in
+//!   Box2D. Its impulse accumulates over the sweeps, never below zero (a contact pushes, it
+//!   never pulls), aiming at zero relative normal speed. For a single new contact that is the
+//!   lecture's formula with `k = 0`; in a pile, the accumulated impulse is remembered into the
+//!   next step ([`crate::memory`]) and applied before the first sweep ("warm starting"), so the
+//!   weight of fifty rows does not have to climb up from the floor again every step.
 //!
-//! ## Order, determinism and parallelism
+//! Sweeps repeat until one changes nothing (no impact, no resting impulse moving the relative
+//! speed by more than [`RESIDUAL_FRACTION`] of the resting speed) or the cap is hit. Every
+//! impulse is equal and opposite, so momentum is conserved whatever the cap; with `k = 1`
+//! every contact is an impact, so kinetic energy is too.
 //!
-//! Particles live in *storage slots* (the world keeps them sorted along space, see
-//! [`crate::world`]); contacts are pairs of slots `(i, j)`, `i < j`, sorted. Slots are cut into
-//! blocks of `size`; a contact belongs to the block of its `i`. A sweep runs
+//! **Position phase** (the lecture's "solution 1", which it calls hard with many contacts):
+//! after the particles move, overlapping particles are moved apart along their normal, each by
+//! its share of inverse mass, down to a small slop, and pushed out of planes. Positions only:
+//! velocities are never touched, so this can never add kinetic energy. Planes go last so a
+//! walled box holds its particles.
 //!
-//! 1. the even blocks, each with the slots of itself and the next block (pairwise disjoint, so
-//!    they run in parallel), taking the contacts whose `j` lies in those two blocks;
-//! 2. the odd blocks, the same way;
-//! 3. the leftover contacts (those whose `j` lies further away), one after another;
-//! 4. the plane contacts, block by block (one particle is never in two blocks).
-//!
-//! Inside a block, contacts go in sorted order. So the order of every response is fixed by the
-//! contact set and the slots alone: the same for any thread count, and the same whichever broad
-//! phase found the contacts. Running the blocks serially gives the very same bits.
-//!
-//! The same order runs across processes ([`crate::cluster`]): each process holds a run of
-//! whole blocks, and an `Exchange` lends it the particles of the next process's first block
-//! that its border block pair touches, runs the leftovers in their global order and adds up
-//! the counts that decide when a phase stops. Alone in one process, `Alone` does none of that.
+//! The order of every rule application is fixed by [`crate::schedule`].
 
 use crate::broadphase::Pair;
 use crate::plane::Plane;
-use crate::response::{collide, contact_normal};
+use crate::response::{collide, contact_normal, is_overlapping, split_normal_tangent};
+use crate::schedule::{Blocks, Exchange, PlaneContact};
 use crate::vector::Vector;
 use rayon::prelude::*;
 
-/// A particle touching a plane: `(slot, plane index)`.
-pub type PlaneContact = (u32, u32);
-
 /// The position phase leaves overlapping pairs this fraction of the smaller radius deep, so a
 /// resting contact is still detected (`distance < r1 + r2`) on the next step instead of
-/// dropping out of the contact list and letting a stack sink. (Box2D's "linear slop" plays
-/// the same role.)
+/// dropping out of the contact list. (Box2D's "linear slop" plays the same role.)
 pub const SLOP_FRACTION: f64 = 1e-3;
 
 /// Approaches slower than this fraction of the particles' speeds are rounding residue, not
 /// approaches: after a `k = 0` response the relative normal speed is zero only up to rounding.
 const APPROACH_TOLERANCE: f64 = 1e-12;
 
+/// The velocity phase of resting contacts ends when no contact misses its goal (approaching
+/// when it should not, or pushing while separating) by more than this fraction of the resting
+/// speed. At the default resting speed `2 |g| dt` a contact then sinks by at most
+/// `0.02 |g| dt^2` a step (`5e-5` of a radius-1 disc at dt = 1/60 and g = 9.81), which the
+/// position phase takes back.
+pub const RESIDUAL_FRACTION: f64 = 1e-2;
+
+/// How far a particle of radius `r` moving at `speed` reaches in a step of `dt`: its contact
+/// candidates this step are the pairs and planes within reach. The move, up to one radius, is
+/// covered, so an overlap it creates is pushed apart within the step; the slop keeps a particle
+/// resting on a plane a candidate.
+#[inline]
+pub(crate) fn reach(radius: f64, speed: f64, dt: f64) -> f64 {
+    // (speed: what the particle has plus what gravity adds this step)
+    radius + SLOP_FRACTION * radius + (speed * dt).min(radius)
+}
+
+/// Rows per parallel task when preparing contacts.
+const ROW_CHUNK: usize = 4096;
+
+/// The solver's settings for one step (from [`crate::WorldConfig`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolverSettings {
+    /// Particle-particle restitution `k` in [0, 1].
+    pub restitution: f64,
+    /// Approaches slower than this (length / time) rest instead of bouncing when `k < 1`.
+    pub resting_speed: f64,
+    /// Cap on velocity sweeps, >= 1.
+    pub velocity_iterations: u32,
+    /// Cap on position sweeps (0: no position correction).
+    pub position_iterations: u32,
+    /// Substeps per step when contacts can rest (see [`integrate`]), >= 1.
+    pub substeps: u32,
+}
+
+impl SolverSettings {
+    /// True when every contact takes the lecture's response alone: no gravity to rest against
+    /// (resting speed 0), or `k = 1` everywhere.
+    fn lecture_only(&self, planes_elastic: bool) -> bool {
+        self.resting_speed <= 0.0 || (self.restitution >= 1.0 && planes_elastic)
+    }
+}
+
 /// What the velocity phase did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct VelocitySolve {
     /// Sweeps made (1 when nothing was approaching).
     pub iterations: u32,
-    /// Responses applied, particle-particle and particle-plane.
+    /// Rule applications that changed something (impacts and resting impulses).
     pub responses: u64,
-    /// True when the last sweep still found approaching contacts (the cap was hit).
+    /// True when the last sweep still changed something (the cap was hit).
     pub capped: bool,
 }
 
-/// How contacts are split into blocks for one step.
-#[derive(Debug, Default)]
-pub(crate) struct Blocks {
-    /// Slots per block (> 0).
-    pub size: usize,
-    /// `pairs[pair_start[b]..pair_start[b + 1]]` are block `b`'s contacts.
-    pair_start: Vec<usize>,
-    /// The same for plane contacts.
-    plane_start: Vec<usize>,
-    /// Contacts whose `j` is beyond the next block, in sorted order.
-    pub(crate) leftovers: Vec<Pair>,
-    /// Global index of block 0 (non-zero when this process holds a later run of blocks): the
-    /// even/odd split goes by global block index.
-    first_block: usize,
-    /// Run blocks on the thread pool (otherwise serially; same result).
-    parallel: bool,
-}
-
-impl Blocks {
-    /// Splits this step's contacts; `pairs` and `plane_contacts` must be sorted. Slot 0 here
-    /// is the first slot of global block `first_block`.
-    pub fn plan(
-        &mut self,
-        n: usize,
-        size: usize,
-        pairs: &[Pair],
-        plane_contacts: &[PlaneContact],
-        parallel: bool,
-        first_block: usize,
-    ) {
-        self.size = size.max(1);
-        self.parallel = parallel;
-        self.first_block = first_block;
-        let count = n.div_ceil(self.size).max(1);
-        let size = self.size;
-        self.pair_start.clear();
-        self.plane_start.clear();
-        for b in 0..=count {
-            let first_slot = (b * size) as u32;
-            self.pair_start
-                .push(pairs.partition_point(|&(i, _)| i < first_slot));
-            self.plane_start
-                .push(plane_contacts.partition_point(|&(i, _)| i < first_slot));
-        }
-        self.leftovers.clear();
-        for b in 0..count {
-            let limit = ((b + 2) * size) as u32;
-            for &(i, j) in &pairs[self.pair_start[b]..self.pair_start[b + 1]] {
-                if j >= limit {
-                    self.leftovers.push((i, j));
-                }
-            }
-        }
-    }
-
-    /// Runs `work(block, first_slot, slots)` on every block of one global parity, each given
-    /// the slots of itself and the next block, and adds up what they return.
-    fn run_pairs<T, F>(&self, data: &mut [T], global_parity: usize, work: F) -> u64
-    where
-        T: Send,
-        F: Fn(usize, usize, &mut [T]) -> u64 + Sync,
-    {
-        let size = self.size;
-        let parity = (global_parity + self.first_block) % 2;
-        let skip = (parity * size).min(data.len());
-        let rest = &mut data[skip..];
-        let task = |(k, chunk): (usize, &mut [T])| work(parity + 2 * k, skip + 2 * k * size, chunk);
-        if self.parallel {
-            rest.par_chunks_mut(2 * size).enumerate().map(task).sum()
-        } else {
-            rest.chunks_mut(2 * size).enumerate().map(task).sum()
-        }
-    }
-
-    /// One sweep over every pair, in the fixed order: the even blocks, then the odd blocks (each
-    /// set in parallel), then the leftovers one after another. `rule(body(i), body(j),
-    /// &mut data[i], &mut data[j])` says whether it changed anything. Returns how many did, as
-    /// (this process's blocks, all leftovers). `reverse` walks each block's pairs backwards (the
-    /// leftovers always go forwards).
-    fn sweep_pairs<V, E, B, R>(
-        &self,
-        exchange: &mut E,
-        data: &mut [V],
-        pairs: &[Pair],
-        reverse: bool,
-        body: B,
-        rule: R,
-    ) -> (u64, u64)
-    where
-        V: Vector,
-        E: Exchange<V>,
-        B: Fn(usize) -> Body<V> + Sync,
-        R: Fn(&Body<V>, &Body<V>, &mut V, &mut V) -> bool + Sync,
-    {
-        let in_block = |block: usize, base: usize, slots: &mut [V]| -> u64 {
-            let limit = base + slots.len();
-            let mut changed = 0;
-            let mut one = |&(i, j): &Pair| {
-                let (i, j) = (i as usize, j as usize);
-                if j < limit {
-                    // (the others are leftovers)
-                    let (a, b) = pair_mut(slots, i - base, j - base);
-                    changed += rule(&body(i), &body(j), a, b) as u64;
-                }
-            };
-            let mine = &pairs[self.pair_start[block]..self.pair_start[block + 1]];
-            if reverse {
-                mine.iter().rev().for_each(&mut one);
-            } else {
-                mine.iter().for_each(&mut one);
-            }
-            changed
-        };
-        let mut changed = 0;
-        for parity in 0..2 {
-            exchange.before_blocks(parity, data);
-            changed += self.run_pairs(data, parity, in_block);
-            exchange.after_blocks(parity, data);
-        }
-        let leftovers = exchange.leftovers(self, data, &body, &rule);
-        (changed, leftovers)
-    }
-
-    /// Runs `work(block, first_slot, slots)` on every block with its own slots.
-    fn run_blocks<T, F>(&self, data: &mut [T], work: F) -> u64
-    where
-        T: Send,
-        F: Fn(usize, usize, &mut [T]) -> u64 + Sync,
-    {
-        let size = self.size;
-        let task = |(b, chunk): (usize, &mut [T])| work(b, b * size, chunk);
-        if self.parallel {
-            data.par_chunks_mut(size).enumerate().map(task).sum()
-        } else {
-            data.chunks_mut(size).enumerate().map(task).sum()
-        }
-    }
-}
-
-/// `&mut s[i]` and `&mut s[j]` at once, for `i < j`.
-#[inline]
-pub(crate) fn pair_mut<T>(s: &mut [T], i: usize, j: usize) -> (&mut T, &mut T) {
-    let (head, tail) = s.split_at_mut(j);
-    (&mut head[i], &mut tail[0])
-}
-
-/// The read-only facts of one particle that a pair rule reads.
+/// One contact candidate's solver data, at the same index as its pair.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(crate) struct Body<V> {
-    /// Centre (in the position phase, where the positions are what changes, unused).
-    pub position: V,
-    /// Radius, > 0.
-    pub radius: f64,
-    /// Mass, > 0.
-    pub mass: f64,
+pub(crate) struct Row<V> {
+    /// Unit normal from `j` to `i` at the start of the velocity phase.
+    pub normal: V,
+    /// `(m_i, m_j)`, > 0.
+    pub mass: [f64; 2],
+    /// `(1 / m_i, 1 / m_j)`.
+    pub inverse_mass: [f64; 2],
+    /// `1 / (1 / m_i + 1 / m_j)`: the impulse that changes the relative normal speed by one.
+    pub effective_mass: f64,
+    /// `(r_i, r_j)`, > 0.
+    pub radius: [f64; 2],
+    /// Accumulated impulse this step, >= 0 (mass x length / time).
+    pub impulse: f64,
+    /// The impulse after the relax pass: what the next step starts from.
+    pub kept: f64,
+    /// For an impact, the speed its restitution pass aims to separate at (`k` times its
+    /// approach speed); 0 for a resting contact.
+    pub bounce: f64,
+    /// True once the contact took an impulse this step.
+    pub met: bool,
+    /// Overlap at the end of the step as a fraction of `min_radius` (0 when apart).
+    pub overlap: f64,
+    /// The lecture's detection at the start of the velocity phase, with distinct centres (a
+    /// pair with coincident centres has no direction to respond along).
+    pub touching: bool,
+    /// How fast a resting contact may still approach this step: the gap between the surfaces
+    /// over `dt` (0 when they overlap, infinite for coincident centres). A pair a hair apart
+    /// stays in the solver as a *speculative* contact (as in Box2D), so the position phase
+    /// opening a contact by a rounding error does not drop a pile's support for a step.
+    pub allowance: f64,
 }
 
-/// What one sweep needs from beyond this process's slots (see the module notes). Every method
-/// is collective across processes: all of them make the same calls in the same order.
-pub(crate) trait Exchange<V: Vector> {
-    /// Before the blocks of global parity `parity` run on `data`.
-    fn before_blocks(&mut self, parity: usize, data: &mut [V]);
-    /// After the blocks of global parity `parity` ran on `data`.
-    fn after_blocks(&mut self, parity: usize, data: &mut [V]);
-    /// Runs every leftover pair (of every process) in global order and returns how many
-    /// changed anything: the same number on every process.
-    fn leftovers<B, R>(&mut self, blocks: &Blocks, data: &mut [V], body: &B, rule: &R) -> u64
-    where
-        B: Fn(usize) -> Body<V>,
-        R: Fn(&Body<V>, &Body<V>, &mut V, &mut V) -> bool;
-    /// `local` added up over every process.
-    fn total(&mut self, local: u64) -> u64;
-}
-
-/// One process holding every slot: nothing to exchange.
-pub(crate) struct Alone;
-
-impl<V: Vector> Exchange<V> for Alone {
+impl<V: Vector> Row<V> {
+    /// The row of particles at `x`, radius `r` and mass `m`, for a step of `dt`.
     #[inline]
-    fn before_blocks(&mut self, _parity: usize, _data: &mut [V]) {}
+    pub fn new(xi: V, xj: V, ri: f64, rj: f64, mi: f64, mj: f64, dt: f64) -> Self {
+        let mut row = Self {
+            normal: V::ZERO,
+            mass: [mi, mj],
+            inverse_mass: [1.0 / mi, 1.0 / mj],
+            effective_mass: 1.0 / (1.0 / mi + 1.0 / mj),
+            radius: [ri, rj],
+            impulse: 0.0,
+            kept: 0.0,
+            bounce: 0.0,
+            met: false,
+            overlap: 0.0,
+            touching: false,
+            allowance: 0.0,
+        };
+        row.place(xi, xj, dt);
+        row
+    }
+
+    /// Normal, detection and allowance for particles at `xi`, `xj` over a (sub)step `dt`. A
+    /// row left out for the step (infinite allowance) stays out.
     #[inline]
-    fn after_blocks(&mut self, _parity: usize, _data: &mut [V]) {}
-    fn leftovers<B, R>(&mut self, blocks: &Blocks, data: &mut [V], body: &B, rule: &R) -> u64
-    where
-        B: Fn(usize) -> Body<V>,
-        R: Fn(&Body<V>, &Body<V>, &mut V, &mut V) -> bool,
-    {
-        let mut changed = 0;
-        for &(i, j) in &blocks.leftovers {
-            let (i, j) = (i as usize, j as usize);
-            let (a, b) = pair_mut(data, i, j);
-            changed += rule(&body(i), &body(j), a, b) as u64;
+    pub fn place(&mut self, xi: V, xj: V, dt: f64) {
+        if self.allowance == f64::INFINITY {
+            return;
         }
-        changed
+        let (normal, distance) = contact_normal(xi, xj);
+        let [ri, rj] = self.radius;
+        self.normal = normal;
+        self.touching = distance > 0.0 && is_overlapping(xi, xj, ri, rj);
+        // Within the slop of touching, a contact may not close in: the position phase opens
+        // and closes such hairline gaps every step, and letting them turn into approach speeds
+        // would keep a pile stirring.
+        self.allowance = if distance > 0.0 {
+            (distance - (ri + rj) - SLOP_FRACTION * ri.min(rj)).max(0.0) / dt
+        } else {
+            f64::INFINITY
+        };
     }
+
+    /// `r_i + r_j`.
     #[inline]
-    fn total(&mut self, local: u64) -> u64 {
-        local
+    pub fn reach(&self) -> f64 {
+        self.radius[0] + self.radius[1]
+    }
+
+    /// `min(r_i, r_j)`.
+    #[inline]
+    pub fn min_radius(&self) -> f64 {
+        self.radius[0].min(self.radius[1])
     }
 }
 
-/// Read-only particle data the phases need alongside the array they change.
-pub(crate) struct Bodies<'a, V> {
-    pub position: &'a [V],
-    pub radius: &'a [f64],
-    pub mass: &'a [f64],
+/// One particle-plane candidate's solver data.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct PlaneRow<V> {
+    /// The plane's unit normal.
+    pub normal: V,
+    /// The plane's restitution.
+    pub restitution: f64,
+    /// The particle's radius.
+    pub radius: f64,
+    /// Accumulated impulse per unit mass this step, >= 0 (length / time).
+    pub impulse: f64,
+    /// The impulse after the relax pass (see [`Row::kept`]).
+    pub kept: f64,
+    /// See [`Row::bounce`].
+    pub bounce: f64,
+    /// See [`Row::met`].
+    pub met: bool,
+    /// Index of the plane.
+    pub plane: u32,
+    /// The lecture's plane detection at the start of the velocity phase, with its threshold
+    /// ("in practice we take a threshold distance"): `(x - p) . n < r + SLOP_FRACTION r`, since
+    /// the position phase leaves a particle exactly touching its plane.
+    pub touching: bool,
+    /// How fast a resting contact may still approach the plane this step (see
+    /// [`Row::allowance`]).
+    pub allowance: f64,
 }
 
-/// Restitution to use for a contact approaching at `speed` (> 0) with nominal `k`: resting
-/// contacts (slower than `resting_speed`) do not bounce unless `k = 1`, which keeps energy
-/// exactly.
-#[inline]
-fn effective_restitution(k: f64, speed: f64, resting_speed: f64) -> f64 {
-    if k < 1.0 && speed < resting_speed {
-        0.0
+impl<V: Vector> PlaneRow<V> {
+    /// The row of a particle at `x` with radius `r` against `plane` (index `index`), for a
+    /// step of `dt`.
+    #[inline]
+    pub fn new(plane: &Plane<V>, index: u32, x: V, radius: f64, dt: f64) -> Self {
+        let mut row = Self {
+            normal: plane.normal(),
+            restitution: plane.restitution(),
+            radius,
+            impulse: 0.0,
+            kept: 0.0,
+            bounce: 0.0,
+            met: false,
+            plane: index,
+            touching: false,
+            allowance: 0.0,
+        };
+        row.place(plane, x, dt);
+        row
+    }
+
+    /// Detection and allowance for the particle at `x` over a (sub)step `dt` (see
+    /// [`Row::place`]).
+    #[inline]
+    pub fn place(&mut self, plane: &Plane<V>, x: V, dt: f64) {
+        if self.allowance == f64::INFINITY {
+            return;
+        }
+        let (distance, r) = (plane.signed_distance(x), self.radius);
+        self.touching = distance < r + SLOP_FRACTION * r;
+        self.allowance = (distance - r - SLOP_FRACTION * r).max(0.0) / dt;
+    }
+}
+
+/// Fills `rows` (one per pair) from `row(pair)`, in parallel when asked.
+pub(crate) fn prepare_rows<V: Vector>(
+    rows: &mut Vec<Row<V>>,
+    pairs: &[Pair],
+    parallel: bool,
+    row: impl Fn(Pair) -> Row<V> + Sync,
+) {
+    rows.resize(pairs.len(), Row::default());
+    let fill = |(out, keys): (&mut [Row<V>], &[Pair])| {
+        for (r, &p) in out.iter_mut().zip(keys) {
+            *r = row(p);
+        }
+    };
+    if parallel {
+        rows.par_chunks_mut(ROW_CHUNK)
+            .zip(pairs.par_chunks(ROW_CHUNK))
+            .for_each(fill);
     } else {
-        k
+        fill((rows, pairs));
     }
 }
 
-/// Responds to one pair if it is approaching; returns whether it did.
+/// True when `vn` (relative normal velocity, negative when approaching) is an approach and not
+/// rounding residue against speeds whose squares sum to `speed_squared`.
 #[inline]
-#[allow(clippy::too_many_arguments)]
-fn respond_pair<V: Vector>(
-    pi: V,
-    pj: V,
+fn approaching(vn: f64, speed_squared: f64) -> bool {
+    vn < 0.0 && vn * vn > APPROACH_TOLERANCE * APPROACH_TOLERANCE * speed_squared
+}
+
+/// The two passes of the velocity phase when contacts can rest (see [`respond`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pass {
+    /// Every contact aims at not approaching (a gap may close, no more).
+    Relax,
+    /// The impacts aim at separating at `k` times their approach speed.
+    Restitution,
+}
+
+/// The lecture's rule for one pair: if it overlaps and approaches, its response with
+/// restitution `k`.
+#[inline]
+fn lecture_pair<V: Vector>(row: &Row<V>, vi: &mut V, vj: &mut V, k: f64) -> bool {
+    let vn = row.normal.dot(*vi - *vj);
+    if !(row.touching && approaching(vn, vi.length_squared() + vj.length_squared())) {
+        return false;
+    }
+    (*vi, *vj) = collide(row.normal, *vi, *vj, row.mass[0], row.mass[1], k);
+    true
+}
+
+/// The relative normal velocity a contact aims at in `pass`: an impact that met in the relax
+/// pass (it took an impulse at some point) separates at its bounce speed; everything else does
+/// not approach faster than its allowance.
+#[inline]
+fn goal(pass: Pass, bounce: f64, met: bool, allowance: f64) -> f64 {
+    match pass {
+        Pass::Restitution if bounce > 0.0 && met => bounce,
+        _ => -allowance,
+    }
+}
+
+/// The accumulated-impulse rule for one pair in `pass`: push (never pull) until the pair's
+/// relative normal velocity reaches its goal.
+#[inline]
+fn accumulate_pair<V: Vector>(
+    row: &mut Row<V>,
     vi: &mut V,
     vj: &mut V,
-    mi: f64,
-    mj: f64,
-    k: f64,
-    resting_speed: f64,
+    pass: Pass,
+    tolerance: f64,
 ) -> bool {
-    let p_rel = pi - pj;
-    let v_rel = *vi - *vj;
-    let dot = p_rel.dot(v_rel);
-    // The trap rule, p_rel . v_rel < 0, ignoring rounding residue.
-    let scale = p_rel.length_squared() * (vi.length_squared() + vj.length_squared());
-    if !(dot < 0.0 && dot * dot > APPROACH_TOLERANCE * APPROACH_TOLERANCE * scale) {
+    let vn = row.normal.dot(*vi - *vj);
+    let goal = goal(pass, row.bounce, row.met, row.allowance);
+    let target = (row.impulse - (vn - goal) * row.effective_mass).max(0.0);
+    row.met |= target > 0.0;
+    let change = target - row.impulse;
+    if change == 0.0 {
         return false;
     }
-    let (normal, _) = contact_normal(pi, pj);
-    let speed = -normal.dot(v_rel);
-    let (a, b) = collide(
-        normal,
-        *vi,
-        *vj,
-        mi,
-        mj,
-        effective_restitution(k, speed, resting_speed),
-    );
-    *vi = a;
-    *vj = b;
-    true
+    row.impulse = target;
+    let [wi, wj] = row.inverse_mass;
+    *vi += row.normal * (change * wi);
+    *vj -= row.normal * (change * wj);
+    (change * (wi + wj)).abs() > tolerance
 }
 
-/// Responds to one plane contact if the particle is heading in; returns whether it did.
+/// The lecture's plane rule: if the particle touches the plane and heads into it,
+/// `V' = V_T - k V_N`.
 #[inline]
-fn respond_plane<V: Vector>(
-    plane: &Plane<V>,
-    x: V,
-    v: &mut V,
-    radius: f64,
-    resting_speed: f64,
-) -> bool {
-    let heading = plane.normal().dot(*v);
-    if !(plane.signed_distance(x) < radius
-        && heading < 0.0
-        && heading * heading > APPROACH_TOLERANCE * APPROACH_TOLERANCE * v.length_squared())
-    {
+fn lecture_plane<V: Vector>(row: &PlaneRow<V>, v: &mut V) -> bool {
+    let vn = row.normal.dot(*v);
+    if !(row.touching && approaching(vn, v.length_squared())) {
         return false;
     }
-    let k = effective_restitution(plane.restitution(), -heading, resting_speed);
-    let parts = crate::response::split_normal_tangent(*v, plane.normal());
-    *v = parts.tangent - parts.normal * k;
+    let parts = split_normal_tangent(*v, row.normal);
+    *v = parts.tangent - parts.normal * row.restitution;
     true
 }
 
-/// Velocity phase. `restitution` is the particle-particle `k`; planes carry their own.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn solve_velocities<V: Vector, E: Exchange<V>>(
-    exchange: &mut E,
-    bodies: &Bodies<V>,
-    velocity: &mut [V],
-    pairs: &[Pair],
-    plane_contacts: &[PlaneContact],
-    planes: &[Plane<V>],
-    blocks: &Blocks,
-    restitution: f64,
-    resting_speed: f64,
-    max_iterations: u32,
-) -> VelocitySolve {
-    let Bodies {
-        position,
-        radius,
-        mass,
-    } = *bodies;
-    let body = |i: usize| Body {
-        position: position[i],
-        radius: radius[i],
-        mass: mass[i],
-    };
-    let respond = |a: &Body<V>, b: &Body<V>, vi: &mut V, vj: &mut V| {
-        respond_pair(
-            a.position,
-            b.position,
-            vi,
-            vj,
-            a.mass,
-            b.mass,
-            restitution,
-            resting_speed,
-        )
-    };
-    let block_planes = |block: usize, base: usize, v: &mut [V]| -> u64 {
-        let mut responded = 0;
-        for &(i, p) in &plane_contacts[blocks.plane_start[block]..blocks.plane_start[block + 1]] {
-            let i = i as usize;
-            responded += respond_plane(
-                &planes[p as usize],
-                position[i],
-                &mut v[i - base],
-                radius[i],
-                resting_speed,
-            ) as u64;
-        }
-        responded
-    };
-
-    let mut solve = VelocitySolve::default();
-    while solve.iterations < max_iterations.max(1) {
-        solve.iterations += 1;
-        // Planes first: a floor's support then travels up a stack within one sweep.
-        let on_planes = blocks.run_blocks(velocity, block_planes);
-        // Alternate the direction within each block (symmetric Gauss-Seidel): support then
-        // spreads both ways through a stack instead of one layer per sweep.
-        let reverse = solve.iterations % 2 == 0;
-        let (in_blocks, leftovers) =
-            blocks.sweep_pairs(exchange, velocity, pairs, reverse, body, respond);
-        let responded = exchange.total(on_planes + in_blocks) + leftovers;
-        solve.responses += responded;
-        if responded == 0 {
-            return solve;
-        }
+/// The accumulated-impulse rule for a particle on a plane (see [`accumulate_pair`]).
+#[inline]
+fn accumulate_plane<V: Vector>(
+    row: &mut PlaneRow<V>,
+    v: &mut V,
+    pass: Pass,
+    tolerance: f64,
+) -> bool {
+    let vn = row.normal.dot(*v);
+    let goal = goal(pass, row.bounce, row.met, row.allowance);
+    let target = (row.impulse - (vn - goal)).max(0.0);
+    row.met |= target > 0.0;
+    let change = target - row.impulse;
+    if change == 0.0 {
+        return false;
     }
-    solve.capped = true;
-    solve
+    row.impulse = target;
+    *v += row.normal * change;
+    change.abs() > tolerance
 }
 
-/// This step's contacts, planned into blocks.
+/// This step's contacts, planned into blocks, with their rows.
 pub(crate) struct Contacts<'a, V> {
     pub pairs: &'a [Pair],
+    pub rows: &'a mut [Row<V>],
     pub plane_contacts: &'a [PlaneContact],
+    pub plane_rows: &'a mut [PlaneRow<V>],
     pub planes: &'a [Plane<V>],
     pub blocks: &'a Blocks,
 }
 
-/// One step's contact resolution with `config`'s settings: the velocity phase, then the
-/// position phase.
-pub(crate) fn resolve<V: Vector, E: Exchange<V>>(
+/// The particles a step moves: `position` and `velocity` cover the slots the blocks cover, of
+/// which the first `own` belong to this process (the rest are borrowed).
+pub(crate) struct Moving<'a, V> {
+    pub position: &'a mut [V],
+    pub velocity: &'a mut [V],
+    pub own: usize,
+}
+
+/// Gravity, the velocity phase and the move, for one step of `dt`.
+///
+/// Without gravity (resting speed 0), or with `k = 1` on every contact, this is the lecture's
+/// step: `v += g dt`, the lecture's response swept until nothing approaches, `x += v dt`.
+/// Otherwise contacts can rest, and the step is Box2D's "soft step" (Catto 2024; Macklin et
+/// al. 2019, "Small steps in physics simulation"), with the lecture's formula for impacts:
+///
+/// 1. each overlapping contact approaching at least at the resting speed (and not resting
+///    last step) is an *impact*, and remembers the speed `k s` it is to separate at;
+/// 2. `substeps` times, with `h = dt / substeps`: `v += g h`; the accumulated impulses are
+///    applied (from the last step at first: warm starting); *relax* sweeps of accumulated
+///    impulses until no contact approaches (a gap may close, no more); `x += v h`; the
+///    contacts' geometry is brought up to date. What the last relax leaves is remembered for
+///    the next step;
+/// 3. *restitution* (when there were impacts): sweeps until every impact separates at its
+///    `k s` and no other contact approaches. An isolated impact so gets exactly the lecture's
+///    formula, and one against a pile at rest bounces off it as off a wall.
+///
+/// Small steps carry a pile's weight far better than as many sweeps in one step: each
+/// substep's error is `h^2` small.
+pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     exchange: &mut E,
-    config: &crate::world::WorldConfig<V>,
-    particles: &mut crate::particles::Particles<V>,
-    contacts: Contacts<V>,
+    settings: &SolverSettings,
+    gravity: V,
+    dt: f64,
+    m: Moving<V>,
+    c: &mut Contacts<V>,
 ) -> VelocitySolve {
-    let crate::particles::Particles {
+    let Moving {
         position,
         velocity,
-        radius,
-        mass,
-    } = particles;
-    let Contacts {
-        pairs,
-        plane_contacts,
-        planes,
-        blocks,
-    } = contacts;
-    let solve = solve_velocities(
+        own,
+    } = m;
+    let blocks = c.blocks;
+    let k = settings.restitution;
+    let resting = settings.resting_speed;
+    let tolerance = RESIDUAL_FRACTION * resting;
+    let elastic_planes = c.planes.iter().all(|p| p.restitution() >= 1.0);
+    let substeps = if settings.lecture_only(elastic_planes) {
+        1
+    } else {
+        settings.substeps.max(1)
+    };
+    let h = dt / substeps as f64;
+    let cap = (settings.velocity_iterations / substeps).max(1);
+    let lecture_pairs = k >= 1.0 || resting <= 0.0;
+    let lecture_planes = |row: &PlaneRow<V>| row.restitution >= 1.0 || resting <= 0.0;
+    let impacts = classify(
         exchange,
-        &Bodies {
-            position,
-            radius,
-            mass,
-        },
+        settings,
         velocity,
-        pairs,
-        plane_contacts,
-        planes,
-        blocks,
-        config.restitution,
-        config.effective_resting_speed(),
-        config.velocity_iterations,
+        c,
+        substeps as f64,
+        gravity,
+        dt,
     );
-    separate(
-        exchange,
-        position,
-        radius,
-        mass,
-        pairs,
-        plane_contacts,
-        planes,
-        blocks,
-        config.position_iterations,
-    );
+    let mut solve = VelocitySolve::default();
+    for pass in (0..substeps)
+        .map(|_| Pass::Relax)
+        .chain([Pass::Restitution])
+    {
+        if pass == Pass::Restitution {
+            exchange.settle_rows(blocks, c.rows);
+            for row in c.rows.iter_mut() {
+                row.kept = row.impulse;
+            }
+            for row in c.plane_rows.iter_mut() {
+                row.kept = row.impulse;
+            }
+            exchange.keep_impulses();
+            if exchange.total(impacts) == 0 {
+                break;
+            }
+        } else {
+            let dv = gravity * h;
+            velocity[..own].iter_mut().for_each(|v| *v += dv);
+            if !lecture_pairs || !elastic_planes {
+                warm_start(exchange, velocity, c);
+            }
+        }
+        let pair_rule = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+            if lecture_pairs {
+                lecture_pair(row, vi, vj, k)
+            } else {
+                accumulate_pair(row, vi, vj, pass, tolerance)
+            }
+        };
+        let plane_rule = |base: usize, v: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
+            let mut changed = 0;
+            for (n, row) in rows.iter_mut().enumerate() {
+                let v = &mut v[c.plane_contacts[row_base + n].0 as usize - base];
+                changed += if lecture_planes(row) {
+                    lecture_plane(row, v)
+                } else {
+                    accumulate_plane(row, v, pass, tolerance)
+                } as u64;
+            }
+            changed
+        };
+        let mut sweeps = 0;
+        loop {
+            if sweeps == cap {
+                solve.capped = true;
+                break;
+            }
+            sweeps += 1;
+            // Planes first: a floor's support then travels up a stack within one sweep.
+            let on_planes = blocks.run_planes(velocity, c.plane_rows, &plane_rule);
+            // Alternate the direction within each block (symmetric Gauss-Seidel): support
+            // then spreads both ways through a stack instead of one layer per sweep.
+            let reverse = sweeps % 2 == 0;
+            let (in_blocks, leftovers) =
+                blocks.sweep_pairs(exchange, velocity, c.pairs, c.rows, reverse, &pair_rule);
+            let changed = exchange.total(on_planes + in_blocks) + leftovers;
+            solve.responses += changed;
+            if changed == 0 {
+                break;
+            }
+            // A pile is hyperstatic: its impulses can keep shifting between contacts (every
+            // update "changes something") while its velocities no longer do. So now and then
+            // (after sweeps 1, 2, 4, 8, ...) the sweeps also stop when no contact misses its
+            // goal by more than the tolerance.
+            if !lecture_pairs
+                && sweeps.is_power_of_two()
+                && unsettled(exchange, velocity, c, pass, tolerance) == 0
+            {
+                break;
+            }
+        }
+        solve.iterations += sweeps;
+        if pass == Pass::Relax {
+            for (x, v) in position[..own].iter_mut().zip(&velocity[..own]) {
+                *x += *v * h;
+            }
+            if substeps > 1 {
+                place(exchange, position, c, h);
+            }
+        }
+    }
+    exchange.settle_rows(blocks, c.rows);
     solve
+}
+
+/// Brings every contact's normal, detection and allowance up to date with the positions.
+fn place<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    position: &mut [V],
+    c: &mut Contacts<V>,
+    h: f64,
+) {
+    let pairs = |row: &mut Row<V>, xi: &mut V, xj: &mut V| {
+        row.place(*xi, *xj, h);
+        false
+    };
+    let planes = |base: usize, x: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
+        for (n, row) in rows.iter_mut().enumerate() {
+            let i = c.plane_contacts[row_base + n].0 as usize - base;
+            row.place(&c.planes[row.plane as usize], x[i], h);
+        }
+        0
+    };
+    c.blocks.run_planes(position, c.plane_rows, &planes);
+    c.blocks
+        .sweep_pairs(exchange, position, c.pairs, c.rows, false, &pairs);
+}
+
+/// How far a pair's relative normal velocity `vn` is from satisfying its goal with impulse
+/// `impulse` (complementarity: an active contact meets its goal, an idle one does not fall
+/// short of it).
+#[inline]
+fn miss(vn: f64, goal: f64, impulse: f64) -> f64 {
+    if impulse > 0.0 {
+        (vn - goal).abs()
+    } else {
+        (goal - vn).max(0.0)
+    }
+}
+
+/// How many contacts miss their goal by more than `tolerance` (read only).
+fn unsettled<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    velocity: &mut [V],
+    c: &mut Contacts<V>,
+    pass: Pass,
+    tolerance: f64,
+) -> u64 {
+    let goal = |bounce: f64, met: bool, allowance: f64| goal(pass, bounce, met, allowance);
+    let pairs = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+        let vn = row.normal.dot(*vi - *vj);
+        miss(vn, goal(row.bounce, row.met, row.allowance), row.impulse) > tolerance
+    };
+    let planes = |base: usize, v: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
+        let mut missed = 0;
+        for (n, row) in rows.iter().enumerate() {
+            if row.restitution >= 1.0 {
+                continue;
+            }
+            let vn = row
+                .normal
+                .dot(v[c.plane_contacts[row_base + n].0 as usize - base]);
+            missed += (miss(vn, goal(row.bounce, row.met, row.allowance), row.impulse) > tolerance)
+                as u64;
+        }
+        missed
+    };
+    let on_planes = c.blocks.run_planes(velocity, c.plane_rows, &planes);
+    let (in_blocks, leftovers) = c
+        .blocks
+        .sweep_pairs(exchange, velocity, c.pairs, c.rows, false, &pairs);
+    exchange.total(on_planes + in_blocks) + leftovers
+}
+
+/// Marks this step's impacts (see [`respond`]) from the velocities before any impulse, and
+/// returns how many this process found.
+fn classify<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    settings: &SolverSettings,
+    velocity: &mut [V],
+    c: &mut Contacts<V>,
+    substeps: f64,
+    gravity: V,
+    dt: f64,
+) -> u64 {
+    // (a pair's approach speed is the same before and after gravity; a plane's is not: as in
+    // the lecture's step, the velocity update comes before the collision)
+    let (k, resting) = (settings.restitution, settings.resting_speed);
+    if resting <= 0.0 {
+        return 0;
+    }
+    // The rows' allowances were made for the whole step; a substep closes a gap in less time.
+    let pairs = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+        let speed = -row.normal.dot(*vi - *vj);
+        // An impact across a gap (a pair that would meet within the step) bounces too, when
+        // the relax pass finds it meeting: as in Box2D, a speculative contact keeps the speed
+        // it bounces with instead of eating it.
+        let fast = speed >= resting && row.impulse == 0.0;
+        row.bounce = if fast { k * speed } else { 0.0 };
+        row.allowance *= substeps;
+        row.bounce > 0.0
+    };
+    let planes = |base: usize, v: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
+        let mut found = 0;
+        for (n, row) in rows.iter_mut().enumerate() {
+            let v = v[c.plane_contacts[row_base + n].0 as usize - base] + gravity * dt;
+            let speed = -row.normal.dot(v);
+            let fast = speed >= resting && row.impulse == 0.0;
+            row.bounce = if fast { row.restitution * speed } else { 0.0 };
+            row.allowance *= substeps;
+            found += (row.bounce > 0.0) as u64;
+        }
+        found
+    };
+    let on_planes = c.blocks.run_planes(velocity, c.plane_rows, &planes);
+    let (in_blocks, leftovers) = c
+        .blocks
+        .sweep_pairs(exchange, velocity, c.pairs, c.rows, false, &pairs);
+    // (every process counts the leftovers: only whether there are any matters)
+    on_planes + in_blocks + leftovers
+}
+
+/// Applies every remembered impulse once, before the first sweep.
+fn warm_start<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    velocity: &mut [V],
+    c: &mut Contacts<V>,
+) {
+    let push = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+        if row.impulse > 0.0 {
+            *vi += row.normal * (row.impulse * row.inverse_mass[0]);
+            *vj -= row.normal * (row.impulse * row.inverse_mass[1]);
+        }
+        false
+    };
+    let on_planes = |base: usize, v: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
+        for (k, row) in rows.iter().enumerate() {
+            if row.impulse > 0.0 {
+                let i = c.plane_contacts[row_base + k].0 as usize;
+                v[i - base] += row.normal * row.impulse;
+            }
+        }
+        0
+    };
+    c.blocks.run_planes(velocity, c.plane_rows, &on_planes);
+    c.blocks
+        .sweep_pairs(exchange, velocity, c.pairs, c.rows, false, &push);
 }
 
 /// Moves one overlapping pair apart down to the slop; returns whether it moved them.
 #[inline]
-fn separate_pair<V: Vector>(xi: &mut V, xj: &mut V, ri: f64, rj: f64, mi: f64, mj: f64) -> bool {
+fn separate_pair<V: Vector>(row: &Row<V>, xi: &mut V, xj: &mut V) -> bool {
     let (normal, distance) = contact_normal(*xi, *xj);
-    let overlap = ri + rj - distance - SLOP_FRACTION * ri.min(rj);
+    let overlap = row.reach() - distance - SLOP_FRACTION * row.min_radius();
     if overlap <= 0.0 {
         return false;
     }
     // Inverse-mass shares: the lighter particle moves further.
-    let (wi, wj) = (1.0 / mi, 1.0 / mj);
+    let [wi, wj] = row.inverse_mass;
     let share = overlap / (wi + wj);
     *xi += normal * (share * wi);
     *xj -= normal * (share * wj);
     true
 }
 
-/// Position phase: `iterations` sweeps over the pairs and plane contacts (in the same order
-/// as the velocity phase), then every particle of a pair against every plane.
-#[allow(clippy::too_many_arguments)]
+/// Position phase: sweeps over the pairs and plane contacts (in the same order as the velocity
+/// phase) until nothing moves or the cap is hit, then every particle of a pair against every
+/// plane. Returns the largest overlap left, as a fraction of the smaller radius.
 pub(crate) fn separate<V: Vector, E: Exchange<V>>(
     exchange: &mut E,
+    settings: &SolverSettings,
     position: &mut [V],
-    radius: &[f64],
-    mass: &[f64],
-    pairs: &[Pair],
-    plane_contacts: &[PlaneContact],
-    planes: &[Plane<V>],
-    blocks: &Blocks,
-    iterations: u32,
-) {
-    // The positions are what changes here, so a body's own position is not read.
-    let body = |i: usize| Body {
-        position: V::ZERO,
-        radius: radius[i],
-        mass: mass[i],
-    };
-    let push_apart = |a: &Body<V>, b: &Body<V>, xi: &mut V, xj: &mut V| {
-        separate_pair(xi, xj, a.radius, b.radius, a.mass, b.mass)
-    };
-    let block_planes = |block: usize, base: usize, x: &mut [V]| -> u64 {
+    c: &mut Contacts<V>,
+) -> f64 {
+    let (blocks, planes) = (c.blocks, c.planes);
+    let push_apart = |row: &mut Row<V>, xi: &mut V, xj: &mut V| separate_pair(row, xi, xj);
+    let out_of_planes = |base: usize, x: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
         let mut moved = 0;
-        for &(i, p) in &plane_contacts[blocks.plane_start[block]..blocks.plane_start[block + 1]] {
-            let i = i as usize;
-            let before = x[i - base];
-            x[i - base] = planes[p as usize].push_out(before, radius[i]);
-            moved += (x[i - base] != before) as u64;
+        for (k, row) in rows.iter().enumerate() {
+            let i = c.plane_contacts[row_base + k].0 as usize - base;
+            let before = x[i];
+            x[i] = planes[row.plane as usize].push_out(before, row.radius);
+            moved += (x[i] != before) as u64;
         }
         moved
     };
-    for _ in 0..iterations {
+    for _ in 0..settings.position_iterations {
         let (in_blocks, leftovers) =
-            blocks.sweep_pairs(exchange, position, pairs, false, body, push_apart);
-        let on_planes = blocks.run_blocks(position, block_planes);
+            blocks.sweep_pairs(exchange, position, c.pairs, c.rows, false, &push_apart);
+        let on_planes = blocks.run_planes(position, c.plane_rows, &out_of_planes);
         if exchange.total(in_blocks + on_planes) + leftovers == 0 {
             break;
         }
     }
-    if planes.is_empty() {
-        return;
-    }
     // Planes last, for every particle the pair sweeps may have moved (the others moved only
-    // out of their own planes above), so a walled box holds its particles.
+    // out of their own planes above), so a walled box holds its particles; then measure.
     let out_of_all_planes = |x: &mut V, r: f64| {
         for plane in planes {
             *x = plane.push_out(*x, r);
         }
     };
-    blocks.sweep_pairs(exchange, position, pairs, false, body, |a, b, xi, xj| {
-        out_of_all_planes(xi, a.radius);
-        out_of_all_planes(xj, b.radius);
+    let finish = |row: &mut Row<V>, xi: &mut V, xj: &mut V| {
+        if !planes.is_empty() {
+            out_of_all_planes(xi, row.radius[0]);
+            out_of_all_planes(xj, row.radius[1]);
+        }
+        let (_, distance) = contact_normal(*xi, *xj);
+        row.overlap = ((row.reach() - distance) / row.min_radius()).max(0.0);
         false
-    });
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::DVec2;
-
-    struct Two {
-        position: Vec<DVec2>,
-        velocity: Vec<DVec2>,
-        radius: Vec<f64>,
-        mass: Vec<f64>,
-        blocks: Blocks,
-    }
-
-    fn two(p1: DVec2, v1: DVec2, p2: DVec2, v2: DVec2) -> Two {
-        let mut blocks = Blocks::default();
-        blocks.plan(2, 1024, &[(0, 1)], &[], false, 0);
-        Two {
-            position: vec![p1, p2],
-            velocity: vec![v1, v2],
-            radius: vec![1.0, 1.0],
-            mass: vec![1.0, 3.0],
-            blocks,
-        }
-    }
-
-    impl Two {
-        fn solve(&mut self, k: f64) -> VelocitySolve {
-            let bodies = Bodies {
-                position: &self.position,
-                radius: &self.radius,
-                mass: &self.mass,
-            };
-            solve_velocities(
-                &mut Alone,
-                &bodies,
-                &mut self.velocity,
-                &[(0, 1)],
-                &[],
-                &[],
-                &self.blocks,
-                k,
-                0.0,
-                8,
-            )
-        }
-        fn separate(&mut self, iterations: u32) {
-            separate(
-                &mut Alone,
-                &mut self.position,
-                &self.radius,
-                &self.mass,
-                &[(0, 1)],
-                &[],
-                &[],
-                &self.blocks,
-                iterations,
-            );
-        }
-    }
-
-    #[test]
-    fn overlapping_pair_moving_apart_is_left_alone() {
-        let mut p = two(
-            DVec2::ZERO,
-            DVec2::new(-1.0, 0.0),
-            DVec2::new(1.5, 0.0),
-            DVec2::new(2.0, 0.0),
-        );
-        let before = p.velocity.clone();
-        let s = p.solve(1.0);
-        assert_eq!(s.responses, 0);
-        assert_eq!(p.velocity, before);
-    }
-
-    #[test]
-    fn approaching_pair_responds_once() {
-        let mut p = two(
-            DVec2::ZERO,
-            DVec2::new(4.0, 0.0),
-            DVec2::new(1.5, 0.0),
-            DVec2::ZERO,
-        );
-        let s = p.solve(1.0);
-        assert_eq!((s.responses, s.iterations, s.capped), (1, 2, false));
-        assert!((p.velocity[0].x + 2.0).abs() < 1e-12);
-        assert!((p.velocity[1].x - 2.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn perfectly_inelastic_pair_settles_in_one_response() {
-        let mut p = two(
-            DVec2::ZERO,
-            DVec2::new(4.0, 1.0),
-            DVec2::new(1.5, 0.8),
-            DVec2::new(-1.0, -2.0),
-        );
-        let s = p.solve(0.0);
-        assert_eq!((s.responses, s.capped), (1, false));
-    }
-
-    #[test]
-    fn separation_splits_by_inverse_mass_and_keeps_velocity() {
-        let mut p = two(DVec2::ZERO, DVec2::X, DVec2::new(1.0, 0.0), DVec2::Y);
-        p.separate(1);
-        // overlap 1 (less the slop), masses 1 and 3: the light one moves 3/4, the heavy one 1/4
-        let overlap = 1.0 - SLOP_FRACTION;
-        assert!((p.position[0].x + 0.75 * overlap).abs() < 1e-12);
-        assert!((p.position[1].x - 1.0 - 0.25 * overlap).abs() < 1e-12);
-        assert_eq!(p.velocity, vec![DVec2::X, DVec2::Y]);
-    }
-
-    #[test]
-    fn coincident_centres_separate_without_nan() {
-        let mut p = two(DVec2::ONE, DVec2::ZERO, DVec2::ONE, DVec2::ZERO);
-        p.solve(1.0);
-        p.separate(4);
-        assert!(p.position.iter().all(|x| x.is_finite()));
-        assert!((p.position[0] - p.position[1]).length() >= 2.0 - 2.0 * SLOP_FRACTION);
-    }
-
-    #[test]
-    fn slow_approach_does_not_bounce_below_k_1() {
-        assert_eq!(effective_restitution(0.5, 0.01, 0.1), 0.0);
-        assert_eq!(effective_restitution(0.5, 1.0, 0.1), 0.5);
-        assert_eq!(
-            effective_restitution(1.0, 0.01, 0.1),
-            1.0,
-            "k = 1 keeps energy exactly"
-        );
-    }
+    };
+    blocks.sweep_pairs(exchange, position, c.pairs, c.rows, false, &finish);
+    exchange.settle_rows(blocks, c.rows);
+    let local = c.rows.iter().map(|r| r.overlap).fold(0.0, f64::max);
+    exchange.largest(local)
 }

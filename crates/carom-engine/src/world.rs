@@ -1,10 +1,17 @@
 //! The world: particles, planes, a broad phase and the time step that ties them together.
 //!
-//! One step (length `dt`, time units):
-//! 1. integrate: `v += g dt`, then `x += v dt` (semi-implicit Euler);
-//! 2. broad phase: every overlapping pair, sorted (see [`crate::broadphase`]);
-//! 3. plane contacts: every particle within its radius of a plane;
-//! 4. velocity phase, then position phase (see [`crate::solver`]).
+//! One step (length `dt`, time units) takes the phases of [`crate::step::advance`]:
+//! 1. gravity: `v += g dt`;
+//! 2. contacts: every pair within reach this step, sorted (see [`crate::broadphase`]), and
+//!    every particle within reach of a plane; the lecture's detection on each;
+//! 3. velocity phase (see [`crate::solver`]), warm-started from the last step's resting
+//!    impulses (see [`crate::memory`]);
+//! 4. move: `x += v dt`;
+//! 5. position phase.
+//!
+//! A particle's *reach* this step is its radius plus how far it can move, `min(|v| dt, r)`:
+//! pairs within reach are solver candidates, so that an overlap the move creates is pushed
+//! apart in the same step, while only pairs that overlap (`distance < r1 + r2`) respond.
 //!
 //! Storage order: every [`REORDER_INTERVAL`] steps the particles' arrays are sorted along
 //! space (by the cell of a grid one largest diameter fine, row by row), so that neighbours sit
@@ -19,9 +26,12 @@ use crate::domain::Aabb;
 use crate::error::EngineError;
 use crate::grid::{bounding_box, Grid, GridLayout};
 use crate::hash::SpatialHash;
+use crate::memory::{self, ContactImpulses, Memory};
 use crate::particles::Particles;
 use crate::plane::{check_restitution, Plane};
-use crate::solver::{self, Alone, Blocks, Contacts, PlaneContact};
+use crate::schedule::{Alone, Blocks, PlaneContact};
+use crate::solver::{self, Contacts, Moving, PlaneRow, Row, SolverSettings, VelocitySolve};
+use crate::step::{self, Phases};
 use crate::vector::Vector;
 use rayon::prelude::*;
 use std::cell::OnceCell;
@@ -30,6 +40,8 @@ use std::cell::OnceCell;
 pub const DEFAULT_VELOCITY_ITERATIONS: u32 = 32;
 /// Default position-correction sweeps per step.
 pub const DEFAULT_POSITION_ITERATIONS: u32 = 4;
+/// Default substeps per step when contacts can rest (Box2D's default too).
+pub const DEFAULT_SUBSTEPS: u32 = 4;
 /// Steps between two spatial sorts of the particle arrays.
 pub const REORDER_INTERVAL: u64 = 32;
 /// Smallest block of storage slots the solver hands to one task.
@@ -48,6 +60,9 @@ pub struct WorldConfig<V> {
     pub velocity_iterations: u32,
     /// Position-correction sweeps per step (0 turns the lecture's "solution 1" off).
     pub position_iterations: u32,
+    /// Substeps per step when contacts can rest (gravity and some `k < 1`), >= 1: see
+    /// [`crate::solver::integrate`]. The velocity sweep cap is shared among them.
+    pub substeps: u32,
     /// The simulation space; the grid covers it. `None`: the grid fits the particles.
     pub domain: Option<Aabb<V>>,
     /// Which broad phase finds contacts.
@@ -68,6 +83,17 @@ impl<V: Vector> WorldConfig<V> {
         self.resting_speed
             .unwrap_or(2.0 * self.gravity.length_squared().sqrt() * self.dt)
     }
+
+    /// What the solver needs of these settings.
+    pub fn solver_settings(&self) -> SolverSettings {
+        SolverSettings {
+            restitution: self.restitution,
+            resting_speed: self.effective_resting_speed(),
+            velocity_iterations: self.velocity_iterations,
+            position_iterations: self.position_iterations,
+            substeps: self.substeps,
+        }
+    }
 }
 
 impl<V: Vector> Default for WorldConfig<V> {
@@ -78,6 +104,7 @@ impl<V: Vector> Default for WorldConfig<V> {
             restitution: 1.0,
             velocity_iterations: DEFAULT_VELOCITY_ITERATIONS,
             position_iterations: DEFAULT_POSITION_ITERATIONS,
+            substeps: DEFAULT_SUBSTEPS,
             domain: None,
             broad_phase: BroadPhaseKind::Grid,
             grid_cells: None,
@@ -94,6 +121,7 @@ pub struct WorldBuilder<V: Vector> {
     planes: Vec<Plane<V>>,
     particles: Particles<V>,
     resume: Option<(u64, Vec<u32>)>,
+    impulses: ContactImpulses,
     first_error: Option<EngineError>,
 }
 
@@ -105,6 +133,7 @@ impl<V: Vector> Default for WorldBuilder<V> {
             planes: Vec::new(),
             particles: Particles::new(),
             resume: None,
+            impulses: ContactImpulses::default(),
             first_error: None,
         }
     }
@@ -147,6 +176,11 @@ impl<V: Vector> WorldBuilder<V> {
         self.config.broad_phase = kind;
         self
     }
+    /// Substeps per step (see [`WorldConfig::substeps`]), >= 1.
+    pub fn substeps(mut self, substeps: u32) -> Self {
+        self.config.substeps = substeps;
+        self
+    }
     /// Resting-contact speed (see [`WorldConfig::resting_speed`]), >= 0.
     pub fn resting_speed(mut self, speed: f64) -> Self {
         self.config.resting_speed = Some(speed);
@@ -183,6 +217,14 @@ impl<V: Vector> WorldBuilder<V> {
         self
     }
 
+    /// Continues a run's resting contacts too: the impulses [`World::contact_impulses`] gave at
+    /// the step the run continues from (needed, with [`WorldBuilder::resume`], for the
+    /// continuation to be bit-identical).
+    pub fn impulses(mut self, impulses: ContactImpulses) -> Self {
+        self.impulses = impulses;
+        self
+    }
+
     /// Checks everything and builds the world.
     pub fn build(self) -> Result<World<V>, EngineError> {
         if let Some(e) = self.first_error {
@@ -194,6 +236,9 @@ impl<V: Vector> WorldBuilder<V> {
             return Err(EngineError::NonFinite("gravity"));
         }
         check_restitution(config.restitution)?;
+        if config.substeps == 0 {
+            return Err(EngineError::Substeps);
+        }
         if let Some(speed) = config.resting_speed {
             if !(speed.is_finite() && speed >= 0.0) {
                 return Err(EngineError::NonFinite("resting speed (must be >= 0)"));
@@ -220,6 +265,10 @@ impl<V: Vector> WorldBuilder<V> {
         if ids.len() != n {
             return Err(EngineError::StorageOrder);
         }
+        if !memory::is_valid(&self.impulses, n, planes.len()) {
+            return Err(EngineError::ContactImpulses);
+        }
+        let remembered = Memory::from_ids(&self.impulses, &slots);
         let store = if ids
             .iter()
             .enumerate()
@@ -247,9 +296,14 @@ impl<V: Vector> WorldBuilder<V> {
             by_id: OnceCell::new(),
             contacts_by_id: OnceCell::new(),
             broad_phase,
+            reach: Vec::new(),
             pairs: Vec::new(),
+            rows: Vec::new(),
             plane_contacts: Vec::new(),
+            plane_rows: Vec::new(),
             plane_buffers: Vec::new(),
+            memory: remembered,
+            unsorted_ids: Vec::new(),
             blocks: Blocks::default(),
             block_size: block_size(n, V::DIM),
             sorter: Sorter::default(),
@@ -288,6 +342,8 @@ pub struct Snapshot<V> {
     pub storage_order: Vec<u32>,
     /// Every particle, by id.
     pub particles: Particles<V>,
+    /// The resting contacts' impulses (see [`World::contact_impulses`]).
+    pub impulses: ContactImpulses,
 }
 
 fn check_dt(dt: f64) -> Result<(), EngineError> {
@@ -312,10 +368,20 @@ pub struct World<V: Vector> {
     by_id: OnceCell<Particles<V>>,
     contacts_by_id: OnceCell<Vec<Pair>>,
     broad_phase: Box<dyn BroadPhase<V>>,
-    /// This step's overlapping pairs, as storage slots.
+    /// Each slot's reach this step: radius plus `min(|v| dt, radius)`.
+    reach: Vec<f64>,
+    /// This step's contact candidates (pairs within reach), as storage slots, sorted.
     pairs: Vec<Pair>,
+    /// The solver's data for each pair.
+    rows: Vec<Row<V>>,
+    /// This step's particles within reach of a plane, sorted.
     plane_contacts: Vec<PlaneContact>,
+    plane_rows: Vec<PlaneRow<V>>,
     plane_buffers: Vec<Vec<PlaneContact>>,
+    /// Resting impulses kept from the last step.
+    memory: Memory,
+    /// Ids by slot before a sort (scratch).
+    unsorted_ids: Vec<u32>,
     blocks: Blocks,
     pub(crate) block_size: usize,
     sorter: Sorter,
@@ -447,6 +513,132 @@ impl Sorter {
     }
 }
 
+impl<V: Vector> Phases for World<V> {
+    fn sort_along_space(&mut self) {
+        self.by_id.take();
+        self.contacts_by_id.take();
+        if self.steps % REORDER_INTERVAL != 0 || self.store.is_empty() {
+            return;
+        }
+        self.unsorted_ids.clear();
+        self.unsorted_ids.extend_from_slice(&self.ids);
+        self.sorter.sort(
+            &mut self.store,
+            &mut self.ids,
+            &mut self.slots,
+            self.config.domain,
+        );
+        self.memory.remap(&self.unsorted_ids, &self.slots);
+    }
+
+    fn find_contacts(&mut self) {
+        let parallel = self.parallel();
+        let dt = self.config.dt;
+        let fall = self.config.gravity.length_squared().sqrt() * dt;
+        let reach = |(out, (v, &r)): (&mut f64, (&V, &f64))| {
+            *out = solver::reach(r, v.length_squared().sqrt() + fall, dt);
+        };
+        let p = &self.store;
+        self.reach.resize(p.len(), 0.0);
+        if parallel {
+            self.reach
+                .par_iter_mut()
+                .zip(p.velocity.par_iter().zip(p.radius.par_iter()))
+                .for_each(reach);
+        } else {
+            self.reach
+                .iter_mut()
+                .zip(p.velocity.iter().zip(p.radius.iter()))
+                .for_each(reach);
+        }
+        self.broad_phase
+            .find_pairs(&self.store.position, &self.reach, &mut self.pairs);
+        self.find_plane_contacts(parallel);
+        self.blocks.plan(
+            self.store.len(),
+            self.block_size,
+            &self.pairs,
+            &self.plane_contacts,
+            parallel,
+            0,
+        );
+        let p = &self.store;
+        solver::prepare_rows(&mut self.rows, &self.pairs, parallel, |(i, j)| {
+            let (i, j) = (i as usize, j as usize);
+            Row::new(
+                p.position[i],
+                p.position[j],
+                p.radius[i],
+                p.radius[j],
+                p.mass[i],
+                p.mass[j],
+                dt,
+            )
+        });
+        self.plane_rows.clear();
+        let planes = &self.planes;
+        self.plane_rows
+            .extend(self.plane_contacts.iter().map(|&(i, plane)| {
+                let i = i as usize;
+                PlaneRow::new(
+                    &planes[plane as usize],
+                    plane,
+                    p.position[i],
+                    p.radius[i],
+                    dt,
+                )
+            }));
+        let rows = &mut self.rows;
+        Memory::recall(&self.memory.pairs, &self.pairs, |k, impulse| {
+            rows[k].impulse = impulse;
+        });
+        let plane_rows = &mut self.plane_rows;
+        Memory::recall(&self.memory.planes, &self.plane_contacts, |k, impulse| {
+            plane_rows[k].impulse = impulse;
+        });
+    }
+
+    fn integrate(&mut self) -> VelocitySolve {
+        let settings = self.config.solver_settings();
+        let (gravity, dt) = (self.config.gravity, self.config.dt);
+        let (mut contacts, store) = self.contacts_mut();
+        let own = store.len();
+        let moving = Moving {
+            position: &mut store.position,
+            velocity: &mut store.velocity,
+            own,
+        };
+        solver::integrate(&mut Alone, &settings, gravity, dt, moving, &mut contacts)
+    }
+
+    fn separate(&mut self) -> f64 {
+        let settings = self.config.solver_settings();
+        let (mut contacts, store) = self.contacts_mut();
+        solver::separate(&mut Alone, &settings, &mut store.position, &mut contacts)
+    }
+
+    fn remember(&mut self) {
+        let rows = &self.rows;
+        Memory::store(&mut self.memory.pairs, &self.pairs, |k| rows[k].kept);
+        let plane_rows = &self.plane_rows;
+        Memory::store(&mut self.memory.planes, &self.plane_contacts, |k| {
+            plane_rows[k].kept
+        });
+    }
+
+    fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats {
+        self.steps += 1;
+        StepStats {
+            contacts: self.rows.iter().filter(|r| r.touching).count(),
+            plane_contacts: self.plane_rows.iter().filter(|r| r.touching).count(),
+            velocity_iterations: solve.iterations,
+            responses: solve.responses,
+            capped: solve.capped,
+            max_overlap,
+        }
+    }
+}
+
 /// Particles per parallel integration task (fixed, like [`crate::broadphase`]'s chunks).
 const INTEGRATE_CHUNK: usize = 4096;
 
@@ -456,74 +648,16 @@ impl<V: Vector> World<V> {
         WorldBuilder::default()
     }
 
-    /// Advances the world by one time step.
+    /// Advances the world by one time step (see [`crate::step::advance`]).
     pub fn step(&mut self) -> StepStats {
-        self.by_id.take();
-        self.contacts_by_id.take();
-        if self.steps % REORDER_INTERVAL == 0 {
-            self.sorter.sort(
-                &mut self.store,
-                &mut self.ids,
-                &mut self.slots,
-                self.config.domain,
-            );
-        }
-        let n = self.store.len();
-        let parallel = n >= PARALLEL_MIN;
-        let dt = self.config.dt;
-        let dv = self.config.gravity * dt;
-        let integrate = |(xs, vs): (&mut [V], &mut [V])| {
-            for (x, v) in xs.iter_mut().zip(vs.iter_mut()) {
-                *v += dv;
-                *x += *v * dt;
-            }
-        };
-        let Particles {
-            position, velocity, ..
-        } = &mut self.store;
-        if parallel {
-            position
-                .par_chunks_mut(INTEGRATE_CHUNK)
-                .zip(velocity.par_chunks_mut(INTEGRATE_CHUNK))
-                .for_each(integrate);
-        } else {
-            integrate((position, velocity));
-        }
-
-        self.broad_phase
-            .find_pairs(&self.store.position, &self.store.radius, &mut self.pairs);
-        self.find_plane_contacts(parallel);
-        self.blocks.plan(
-            n,
-            self.block_size,
-            &self.pairs,
-            &self.plane_contacts,
-            parallel,
-            0,
-        );
-
-        let solve = solver::resolve(
-            &mut Alone,
-            &self.config,
-            &mut self.store,
-            Contacts {
-                pairs: &self.pairs,
-                plane_contacts: &self.plane_contacts,
-                planes: &self.planes,
-                blocks: &self.blocks,
-            },
-        );
-        self.steps += 1;
-        StepStats {
-            contacts: self.pairs.len(),
-            plane_contacts: self.plane_contacts.len(),
-            velocity_iterations: solve.iterations,
-            responses: solve.responses,
-            capped: solve.capped,
-        }
+        step::advance(self)
     }
 
-    /// Every (slot, plane) with the particle within its radius of the plane, sorted.
+    fn parallel(&self) -> bool {
+        self.store.len() >= PARALLEL_MIN
+    }
+
+    /// Every (slot, plane) with the particle within reach of the plane, sorted.
     fn find_plane_contacts(&mut self, parallel: bool) {
         self.plane_contacts.clear();
         if self.planes.is_empty() {
@@ -534,12 +668,12 @@ impl<V: Vector> World<V> {
         if self.plane_buffers.len() < chunks {
             self.plane_buffers.resize_with(chunks, Vec::new);
         }
-        let (position, radius, planes) = (&self.store.position, &self.store.radius, &self.planes);
+        let (position, reach, planes) = (&self.store.position, &self.reach, &self.planes);
         let work = |(c, out): (usize, &mut Vec<PlaneContact>)| {
             out.clear();
             for i in c * INTEGRATE_CHUNK..((c + 1) * INTEGRATE_CHUNK).min(n) {
                 for (p, plane) in planes.iter().enumerate() {
-                    if plane.signed_distance(position[i]) < radius[i] {
+                    if plane.signed_distance(position[i]) < reach[i] {
                         out.push((i as u32, p as u32));
                     }
                 }
@@ -559,6 +693,21 @@ impl<V: Vector> World<V> {
         for b in &self.plane_buffers[..chunks] {
             self.plane_contacts.extend_from_slice(b);
         }
+    }
+
+    /// This step's contacts, for the solver.
+    fn contacts_mut(&mut self) -> (Contacts<'_, V>, &mut Particles<V>) {
+        (
+            Contacts {
+                pairs: &self.pairs,
+                rows: &mut self.rows,
+                plane_contacts: &self.plane_contacts,
+                plane_rows: &mut self.plane_rows,
+                planes: &self.planes,
+                blocks: &self.blocks,
+            },
+            &mut self.store,
+        )
     }
 
     /// The particles, in id order.
@@ -629,6 +778,7 @@ impl<V: Vector> World<V> {
             steps_taken,
             storage_order,
             particles,
+            impulses,
         } = snapshot;
         let n = self.store.len();
         if particles.len() != n || storage_order.len() != n {
@@ -641,6 +791,10 @@ impl<V: Vector> World<V> {
                 _ => return Err(EngineError::StorageOrder),
             }
         }
+        if !memory::is_valid(&impulses, n, self.planes.len()) {
+            return Err(EngineError::ContactImpulses);
+        }
+        self.memory = Memory::from_ids(&impulses, &slots);
         for (slot, &id) in storage_order.iter().enumerate() {
             let id = id as usize;
             self.store.position[slot] = particles.position[id];
@@ -654,6 +808,7 @@ impl<V: Vector> World<V> {
         self.by_id = OnceCell::from(particles);
         self.contacts_by_id.take();
         self.pairs.clear();
+        self.rows.clear();
         Ok(())
     }
 
@@ -673,6 +828,12 @@ impl<V: Vector> World<V> {
         &self.ids
     }
 
+    /// The resting contacts' accumulated impulses from the last step, by id: what
+    /// [`WorldBuilder::impulses`] needs to continue this run exactly.
+    pub fn contact_impulses(&self) -> ContactImpulses {
+        self.memory.by_id(&self.ids)
+    }
+
     /// Steps taken so far.
     pub fn steps_taken(&self) -> u64 {
         self.steps
@@ -683,13 +844,16 @@ impl<V: Vector> World<V> {
         self.steps as f64 * self.config.dt
     }
 
-    /// Overlapping pairs found in the last step, as ids `(a, b)` with `a < b`, sorted.
+    /// The last step's overlapping pairs (the lecture's detection at the start of its velocity
+    /// phase), as ids `(a, b)` with `a < b`, sorted.
     pub fn contacts(&self) -> &[Pair] {
         self.contacts_by_id.get_or_init(|| {
             let mut c: Vec<Pair> = self
                 .pairs
                 .iter()
-                .map(|&(i, j)| {
+                .zip(&self.rows)
+                .filter(|(_, row)| row.touching)
+                .map(|(&(i, j), _)| {
                     let (a, b) = (self.ids[i as usize], self.ids[j as usize]);
                     (a.min(b), a.max(b))
                 })
@@ -728,6 +892,7 @@ impl<V: Vector> World<V> {
     pub fn set_restitution(&mut self, k: f64) -> Result<(), EngineError> {
         check_restitution(k)?;
         self.config.restitution = k;
+        self.memory.clear();
         Ok(())
     }
 
@@ -737,6 +902,7 @@ impl<V: Vector> World<V> {
             return Err(EngineError::NonFinite("gravity"));
         }
         self.config.gravity = g;
+        self.memory.clear();
         Ok(())
     }
 
@@ -744,6 +910,7 @@ impl<V: Vector> World<V> {
     pub fn set_dt(&mut self, dt: f64) -> Result<(), EngineError> {
         check_dt(dt)?;
         self.config.dt = dt;
+        self.memory.clear();
         Ok(())
     }
 

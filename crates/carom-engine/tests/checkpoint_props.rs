@@ -57,6 +57,8 @@ fn checkpoint_of<V: Vector>(world: &World<V>) -> Checkpoint {
         velocities: Vec::new(),
         radii: Vec::new(),
         masses: Vec::new(),
+        pair_impulses: world.contact_impulses().pairs,
+        plane_impulses: world.contact_impulses().planes,
     };
     for id in 0..world.len() {
         let (x, v, r, m) = world.particle(id);
@@ -84,6 +86,10 @@ fn resume_from<V: Vector>(setup: &Setup, bytes: &[u8]) -> World<V> {
     }
     builder(setup, p)
         .resume(cp.steps_taken, cp.storage_order)
+        .impulses(carom_engine::ContactImpulses {
+            pairs: cp.pair_impulses,
+            planes: cp.plane_impulses,
+        })
         .build()
         .expect("resumed world builds")
 }

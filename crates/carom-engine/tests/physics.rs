@@ -400,8 +400,9 @@ fn restitution_at_world_level<V: Vector>() {
         // `perfectly_inelastic_pair_does_not_exhaust_the_sweeps`), which changes nothing
         assert_eq!(s.contacts, 1, "{s:?}");
         assert!(s.responses >= 1, "{s:?}");
-        // the normal the engine used: from the positions after integration
-        let d = (x1 + v1 * dt) - (x2 + v2 * dt);
+        // the normal the engine used: from the positions at the start of the step (the step
+        // responds before it moves the particles)
+        let d = x1 - x2;
         let n = d * (1.0 / d.length_squared().sqrt());
         let (a, b) = (w.particles().velocities()[0], w.particles().velocities()[1]);
         let approach = n.dot(v1 - v2);
@@ -536,27 +537,32 @@ fn plane_bounce<V: Vector>() {
             .particle(x0, v0, 1.0, 2.0)
             .build()
             .unwrap();
-        // Step until the particle reaches the floor, checking free fall on the way.
+        // Step until the particle bounces, checking free fall on the way. The step that finds
+        // it touching the floor (or, below k = 1, about to touch it within the step: a
+        // speculative contact) answers with V' = V_T - k V_N on the velocity after gravity.
         let mut v_before = w.particles().velocities()[0];
         let mut hit = false;
         for _ in 0..100 {
-            // the velocity the engine will have after gravity, computed the same way
             let v_after_gravity = v_before + gravity * dt;
-            let x_after = w.particles().positions()[0] + v_after_gravity * dt;
             let s = w.step();
             let v = w.particles().velocities()[0];
-            if x_after.get(1) < 1.0 {
-                assert_eq!(s.plane_contacts, 1);
-                assert_eq!(s.responses, 1);
-                // V' = V_T - k V_N with N = +y: the tangent (x, z) is kept bit for bit
+            if s.responses > 0 {
+                // N = +y: the tangent (x, z) is kept, the normal part reversed and scaled
                 let expected = V::from_slice(&[vx, -k * v_after_gravity.get(1), vz]);
-                assert_eq!(v, expected, "k={k}: {v_after_gravity:?} -> {v:?}");
+                assert!(
+                    (v - expected).length_squared().sqrt() < 1e-12,
+                    "k={k}: {v_after_gravity:?} -> {v:?}"
+                );
                 assert!(w.particles().positions()[0].get(1) >= 1.0 - 1e-12);
                 hit = true;
                 break;
             }
-            assert_eq!(s.plane_contacts, 0);
-            assert_eq!(v, v_after_gravity);
+            // (in substeps gravity comes as four quarters: equal up to rounding)
+            assert!(
+                (v - v_after_gravity).length_squared().sqrt() < 1e-12,
+                "free fall: {v:?}, expected {v_after_gravity:?}"
+            );
+            assert!(w.particles().positions()[0].get(1) >= 1.0 - 1e-12);
             v_before = v;
         }
         assert!(hit, "never reached the floor");

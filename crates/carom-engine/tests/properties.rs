@@ -328,7 +328,7 @@ fn pair_restitution<V: Vector>(
     let s = w.step();
     // at k = 0 the engine may answer the pair more than once (rounding; see physics.rs)
     prop_assert!(s.responses >= 1);
-    let delta = v1 * dt - (x2 + v2 * dt);
+    let delta = V::ZERO - x2;
     let normal = delta * (1.0 / delta.length_squared().sqrt());
     let (a, b) = (w.particles().velocities()[0], w.particles().velocities()[1]);
     let approach = normal.dot(v1 - v2);

@@ -16,6 +16,8 @@
 //! n x dim x f64          velocities, by id
 //! n x f64                radii, by id
 //! n x f64                masses, by id
+//! u64 + m x (u32, u32, f64)   resting pair impulses (id a < id b, impulse), sorted
+//! u64 + m x (u32, u32, f64)   resting plane impulses (id, plane, impulse), sorted
 //! u64                    FNV-1a 64 of everything above
 //! ```
 //!
@@ -26,7 +28,7 @@
 use std::io::{self, Write};
 
 /// Bumped whenever the layout or the meaning of a field changes.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 const MAGIC: &[u8; 8] = b"CAROMCKP";
 
@@ -53,6 +55,10 @@ pub struct Checkpoint {
     pub radii: Vec<f64>,
     /// Masses by id.
     pub masses: Vec<f64>,
+    /// The solver's remembered impulses of resting particle pairs, `(a, b, impulse)`.
+    pub pair_impulses: Vec<(u32, u32, f64)>,
+    /// The same for particles on planes, `(id, plane, impulse)`.
+    pub plane_impulses: Vec<(u32, u32, f64)>,
 }
 
 struct Hashing<W> {
@@ -105,6 +111,14 @@ impl Checkpoint {
                 w.write_all(&x.to_le_bytes())?;
             }
         }
+        for list in [&self.pair_impulses, &self.plane_impulses] {
+            w.write_all(&(list.len() as u64).to_le_bytes())?;
+            for &(a, b, impulse) in list.iter() {
+                w.write_all(&a.to_le_bytes())?;
+                w.write_all(&b.to_le_bytes())?;
+                w.write_all(&impulse.to_le_bytes())?;
+            }
+        }
         let hash = w.hash;
         out.write_all(&hash.to_le_bytes())
     }
@@ -143,7 +157,7 @@ impl Checkpoint {
         let need = n
             .checked_mul(4 + 2 * 8 * d + 16)
             .ok_or("damaged checkpoint: particle count")?;
-        if r.left() != need {
+        if r.left() < need {
             return Err(format!(
                 "damaged checkpoint: {} bytes of particle data, expected {need}",
                 r.left()
@@ -155,6 +169,18 @@ impl Checkpoint {
         let velocities = floats(n * d)?;
         let radii = floats(n)?;
         let masses = floats(n)?;
+        let mut impulses = || -> Result<Vec<(u32, u32, f64)>, String> {
+            let m = r.u64()? as usize;
+            if m.checked_mul(16).is_none_or(|bytes| bytes > r.left()) {
+                return Err("damaged checkpoint: impulse count".into());
+            }
+            (0..m).map(|_| Ok((r.u32()?, r.u32()?, r.f64()?))).collect()
+        };
+        let pair_impulses = impulses()?;
+        let plane_impulses = impulses()?;
+        if r.left() != 0 {
+            return Err(format!("damaged checkpoint: {} bytes left over", r.left()));
+        }
         Ok(Self {
             dimensions,
             steps_taken,
@@ -166,6 +192,8 @@ impl Checkpoint {
             velocities,
             radii,
             masses,
+            pair_impulses,
+            plane_impulses,
         })
     }
 }
@@ -228,6 +256,8 @@ mod tests {
             velocities: vec![1.0, 2.0, 3.0, -0.0],
             radii: vec![0.5, 0.25],
             masses: vec![1.0, 2.0],
+            pair_impulses: vec![(0, 1, 0.75)],
+            plane_impulses: vec![(1, 3, 0.125)],
         }
     }
 

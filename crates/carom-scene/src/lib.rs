@@ -16,7 +16,10 @@ pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
 
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::grid::MAX_CELLS;
-use carom_engine::world::{DEFAULT_POSITION_ITERATIONS, DEFAULT_VELOCITY_ITERATIONS};
+use carom_engine::world::{
+    DEFAULT_POSITION_ITERATIONS, DEFAULT_SUBSTEPS, DEFAULT_VELOCITY_ITERATIONS,
+};
+use carom_engine::ContactImpulses;
 use carom_engine::{
     Aabb, BroadPhaseKind, EngineError, Particles, Plane, Vector, World, WorldConfig,
 };
@@ -60,15 +63,18 @@ impl<V: Vector> Scene<V> {
     }
 
     /// Builds the world as a continuation: `steps_taken` steps already done, particles in
-    /// `storage_order` (see [`carom_engine::WorldBuilder::resume`]).
+    /// `storage_order`, the solver remembering `impulses` (see
+    /// [`carom_engine::WorldBuilder::resume`] and [`carom_engine::WorldBuilder::impulses`]).
     pub fn into_resumed_world(
         mut self,
         steps_taken: u64,
         storage_order: Vec<u32>,
+        impulses: ContactImpulses,
     ) -> Result<World<V>, EngineError> {
         let particles = std::mem::take(&mut self.particles);
         self.builder(particles)
             .resume(steps_taken, storage_order)
+            .impulses(impulses)
             .build()
     }
 
@@ -81,6 +87,7 @@ impl<V: Vector> Scene<V> {
                 self.config.velocity_iterations,
                 self.config.position_iterations,
             )
+            .substeps(self.config.substeps)
             .broad_phase(self.config.broad_phase)
             .particles(particles);
         if let Some(d) = self.config.domain {
@@ -321,9 +328,18 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         }
     }
 
-    let (mut velocity_iterations, mut position_iterations) =
-        (DEFAULT_VELOCITY_ITERATIONS, DEFAULT_POSITION_ITERATIONS);
+    let (mut velocity_iterations, mut position_iterations, mut substeps) = (
+        DEFAULT_VELOCITY_ITERATIONS,
+        DEFAULT_POSITION_ITERATIONS,
+        DEFAULT_SUBSTEPS,
+    );
     if let Some(s) = &raw.solver {
+        if let Some(n) = s.substeps {
+            if !(1..=1000).contains(&n) {
+                return Err(ctx.err("solver.substeps", format!("must be in 1..=1000, got {n}")));
+            }
+            substeps = n as u32;
+        }
         if let Some(v) = s.velocity_iterations {
             if !(1..=1_000_000).contains(&v) {
                 return Err(ctx.err(
@@ -377,6 +393,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
             restitution,
             velocity_iterations,
             position_iterations,
+            substeps,
             domain,
             broad_phase,
             grid_cells,

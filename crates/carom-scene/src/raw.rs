@@ -54,6 +54,7 @@ pub(crate) struct RawBroadPhase {
 pub(crate) struct RawSolver {
     pub velocity_iterations: Option<i64>,
     pub position_iterations: Option<i64>,
+    pub substeps: Option<i64>,
     pub resting_speed: Option<f64>,
 }
 

@@ -21,11 +21,14 @@
 //! one process (tests, and a check of the algorithm without MPI); the `carom` command line
 //! implements it over MPI.
 
+mod lender;
 mod partition;
 mod subdomain;
+mod traffic;
 mod transport;
 mod wire;
 
 pub use partition::Partition;
-pub use subdomain::{Subdomain, Traffic, TrafficKind};
+pub use subdomain::Subdomain;
+pub use traffic::{Traffic, TrafficKind};
 pub use transport::{ThreadTransport, Transport};

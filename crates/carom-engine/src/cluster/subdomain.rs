@@ -1,6 +1,8 @@
 //! One rank's part of a world, stepped in lockstep with the others.
 
+use super::lender::{borrower, lender, Leftovers, Lender};
 use super::partition::Partition;
+use super::traffic::{Link, Traffic, TrafficKind};
 use super::transport::Transport;
 use super::wire::{Reader, Writer};
 use crate::broadphase::{BroadPhase, Pair, PARALLEL_MIN};
@@ -8,148 +10,18 @@ use crate::diagnostics::StepStats;
 use crate::domain::Aabb;
 use crate::error::EngineError;
 use crate::grid::{bounding_box, widened_reach, Grid, GridLayout};
+use crate::memory::{ContactImpulses, Memory};
 use crate::particles::Particles;
 use crate::plane::Plane;
-use crate::solver::{self, pair_mut, Blocks, Body, Contacts, Exchange, PlaneContact};
+use crate::schedule::{Blocks, PlaneContact};
+use crate::solver::{self, Contacts, Moving, PlaneRow, Row, VelocitySolve};
+use crate::step::{self, Phases};
 use crate::vector::Vector;
-use crate::world::REORDER_INTERVAL;
-use crate::world::{block_size, sort_layout, Snapshot, World, WorldConfig};
-
-/// What a message carried, for the traffic figures.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum TrafficKind {
-    /// Particles moving to a new owner at a spatial sort, and the bisection that finds where
-    /// each rank's share starts.
-    Migration,
-    /// A neighbour's first block lent for the contacts across the border, and given back.
-    Halo,
-    /// Particles within interaction range of another rank's, for its broad phase.
-    Ghosts,
-    /// The contacts that reach past the next block, run on every rank in global order.
-    Leftovers,
-    /// Sums that stop a solver phase, bounding boxes, step statistics.
-    Reductions,
-    /// The whole state collected on rank 0 for output.
-    Gather,
-}
-
-const KINDS: usize = 6;
-
-impl TrafficKind {
-    /// Every kind, in report order.
-    pub const ALL: [TrafficKind; KINDS] = [
-        TrafficKind::Migration,
-        TrafficKind::Halo,
-        TrafficKind::Ghosts,
-        TrafficKind::Leftovers,
-        TrafficKind::Reductions,
-        TrafficKind::Gather,
-    ];
-
-    /// Short name for reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            TrafficKind::Migration => "migration",
-            TrafficKind::Halo => "halo",
-            TrafficKind::Ghosts => "ghosts",
-            TrafficKind::Leftovers => "leftovers",
-            TrafficKind::Reductions => "reductions",
-            TrafficKind::Gather => "gather",
-        }
-    }
-}
-
-/// Bytes and messages this rank sent to other ranks (a gather to all counts once per
-/// receiver, as it would cost on a network), by kind.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Traffic {
-    bytes: [u64; KINDS],
-    messages: [u64; KINDS],
-    collectives: [u64; KINDS],
-}
-
-impl Traffic {
-    /// Bytes sent of one kind.
-    pub fn bytes(&self, kind: TrafficKind) -> u64 {
-        self.bytes[kind as usize]
-    }
-    /// Point-to-point messages sent of one kind (empty ones not counted).
-    pub fn messages(&self, kind: TrafficKind) -> u64 {
-        self.messages[kind as usize]
-    }
-    /// Collective operations of one kind this rank took part in (each is a synchronisation
-    /// point: on a network, at least one latency).
-    pub fn collectives(&self, kind: TrafficKind) -> u64 {
-        self.collectives[kind as usize]
-    }
-    /// Bytes sent, all kinds.
-    pub fn total_bytes(&self) -> u64 {
-        self.bytes.iter().sum()
-    }
-    /// Collective operations, all kinds.
-    pub fn total_collectives(&self) -> u64 {
-        self.collectives.iter().sum()
-    }
-}
-
-/// A transport that counts what goes through it.
-struct Link<'a, T: ?Sized> {
-    transport: &'a mut T,
-    traffic: &'a mut Traffic,
-}
-
-impl<T: Transport + ?Sized> Link<'_, T> {
-    fn ranks(&self) -> usize {
-        self.transport.size()
-    }
-
-    fn gather(&mut self, kind: TrafficKind, mine: &[u8]) -> Vec<Vec<u8>> {
-        let others = self.transport.size() as u64 - 1;
-        let k = kind as usize;
-        self.traffic.bytes[k] += mine.len() as u64 * others;
-        self.traffic.messages[k] += if mine.is_empty() { 0 } else { others };
-        self.traffic.collectives[k] += 1;
-        self.transport.all_gather(mine)
-    }
-
-    fn exchange(&mut self, kind: TrafficKind, outgoing: Vec<Writer>) -> Vec<Vec<u8>> {
-        let me = self.transport.rank();
-        let k = kind as usize;
-        for (to, w) in outgoing.iter().enumerate() {
-            if to != me && !w.0.is_empty() {
-                self.traffic.bytes[k] += w.0.len() as u64;
-                self.traffic.messages[k] += 1;
-            }
-        }
-        self.traffic.collectives[k] += 1;
-        self.transport
-            .all_to_all(outgoing.into_iter().map(|w| w.0).collect())
-    }
-
-    /// `local` added up over every rank.
-    fn sum(&mut self, local: &[u64]) -> Vec<u64> {
-        self.sum_of(TrafficKind::Reductions, local)
-    }
-
-    /// `local` added up over every rank, counted as `kind`.
-    fn sum_of(&mut self, kind: TrafficKind, local: &[u64]) -> Vec<u64> {
-        let mut total = local.to_vec();
-        if self.ranks() == 1 {
-            return total;
-        }
-        let k = kind as usize;
-        let others = self.transport.size() as u64 - 1;
-        self.traffic.bytes[k] += 8 * local.len() as u64 * others;
-        self.traffic.messages[k] += others;
-        self.traffic.collectives[k] += 1;
-        self.transport.all_sum(&mut total);
-        total
-    }
-}
+use crate::world::{block_size, sort_layout, Snapshot, World, WorldConfig, REORDER_INTERVAL};
 
 /// One rank's share of a [`World`]: the particles in its slots, stepped together with the
 /// other ranks' shares through a [`Transport`] so that, put together, they take the very steps
-/// the whole world would.
+/// the whole world would (both step through [`crate::step::advance`]).
 ///
 /// Every rank builds the same world (from the same scene), splits it with
 /// [`Subdomain::new`], then calls [`Subdomain::step`] the same number of times; the calls are
@@ -157,7 +29,8 @@ impl<T: Transport + ?Sized> Link<'_, T> {
 ///
 /// Memory per rank is its own particles, one borrowed block and its ghosts. At a spatial sort
 /// the ranks find where each one's share starts in the global order by bisection (about 50
-/// sums of `ranks - 1` numbers), and only the particles that crossed a border move.
+/// sums of `ranks - 1` numbers), and only the particles that crossed a border move, each with
+/// the remembered impulses of the contacts it owned.
 pub struct Subdomain<V: Vector> {
     config: WorldConfig<V>,
     planes: Vec<Plane<V>>,
@@ -176,11 +49,10 @@ pub struct Subdomain<V: Vector> {
     /// Largest radius of the whole world (radii never change).
     max_radius: f64,
     broad_phase: Box<dyn BroadPhase<V>>,
-    /// Own and borrowed particles, then ghosts: what the broad phase searches.
-    search_position: Vec<V>,
-    search_radius: Vec<f64>,
-    /// Global slot of each ghost.
-    ghost_slot: Vec<u32>,
+    /// Each own slot's reach this step (see [`crate::world`]).
+    reach: Vec<f64>,
+    /// Own particles, then ghosts: what the broad phase searches and the rows are made of.
+    search: Search<V>,
     /// Borrowed slots (offsets into the next rank's first block) this step's contacts touch.
     needed: Vec<u32>,
     /// Offsets into the own first block that the previous rank's contacts touch this step.
@@ -188,12 +60,77 @@ pub struct Subdomain<V: Vector> {
     /// Whether any rank borrows anything in the sweeps of parity 0 and 1 this step.
     lending: [bool; 2],
     found: Vec<Pair>,
-    /// This step's contacts whose lower slot is own, as slots relative to `first_slot`.
+    /// (pair as slots relative to `first_slot`, the pair as search indices), sorted.
+    candidates: Vec<(Pair, Pair)>,
+    /// This step's candidates whose lower slot is own, as slots relative to `first_slot`.
     pairs: Vec<Pair>,
+    /// The id of each pair's `j`.
+    partners: Vec<u32>,
+    rows: Vec<Row<V>>,
     plane_contacts: Vec<PlaneContact>,
+    plane_rows: Vec<PlaneRow<V>>,
+    /// Remembered impulses of the contacts this rank owns (relative slots), and the id of each
+    /// pair's `j`.
+    memory: Memory,
+    memory_partners: Vec<u32>,
+    /// After a migration: `(own id, partner id, impulse)` and `(own id, plane, impulse)`
+    /// records still to be matched to slots.
+    arrived_pairs: Vec<(u32, u32, f64)>,
+    arrived_planes: Vec<(u32, u32, f64)>,
+    /// Set by a migration: the next contact search places the arrived records.
+    rerouting: bool,
+    leftovers: Leftovers<V>,
     blocks: Blocks,
     steps: u64,
     traffic: Traffic,
+}
+
+/// Particles the broad phase searches: own ones first, then the ghosts.
+#[derive(Debug, Default)]
+struct Search<V> {
+    position: Vec<V>,
+    reach: Vec<f64>,
+    radius: Vec<f64>,
+    mass: Vec<f64>,
+    id: Vec<u32>,
+    /// Global slot of each ghost.
+    ghost_slot: Vec<u32>,
+    /// (id, search index), sorted, for placing records after a migration.
+    by_id: Vec<(u32, u32)>,
+}
+
+impl<V: Vector> Search<V> {
+    fn clear(&mut self) {
+        self.position.clear();
+        self.reach.clear();
+        self.radius.clear();
+        self.mass.clear();
+        self.id.clear();
+        self.ghost_slot.clear();
+    }
+
+    fn push(&mut self, x: V, reach: f64, radius: f64, mass: f64, id: u32) {
+        self.position.push(x);
+        self.reach.push(reach);
+        self.radius.push(radius);
+        self.mass.push(mass);
+        self.id.push(id);
+    }
+
+    /// The global slot of search index `k` (own ones start at `first`).
+    fn slot(&self, k: usize, own: usize, first: usize) -> usize {
+        if k < own {
+            first + k
+        } else {
+            self.ghost_slot[k - own] as usize
+        }
+    }
+
+    /// The search index of particle `id`, if it is own or a ghost.
+    fn index_of(&self, id: u32) -> Option<usize> {
+        let k = self.by_id.binary_search_by_key(&id, |e| e.0).ok()?;
+        Some(self.by_id[k].1 as usize)
+    }
 }
 
 impl<V: Vector> std::fmt::Debug for Subdomain<V> {
@@ -217,14 +154,15 @@ impl<V: Vector> Subdomain<V> {
             partition.block_slots(partition.blocks_of(rank).end).len()
         });
         let store = &world.store;
-        // The ids in this rank's slots. When the first step will sort anyway, take the order
-        // that sort will give: every rank has the whole world here, so that step then finds
-        // every particle on its rank already, instead of moving most of them.
-        let ids: Vec<u32> = if world.steps_taken() % REORDER_INTERVAL == 0 {
-            world.next_sort_order()[slots.clone()].to_vec()
+        // The ids in every slot. When the first step will sort anyway, take the order that
+        // sort will give: every rank has the whole world here, so that step then finds every
+        // particle on its rank already, instead of moving most of them.
+        let order: Vec<u32> = if world.steps_taken() % REORDER_INTERVAL == 0 {
+            world.next_sort_order()
         } else {
-            world.ids[slots.clone()].to_vec()
+            world.ids.clone()
         };
+        let ids = order[slots.clone()].to_vec();
         let slot_of = |id: u32| world.slots[id as usize] as usize;
         let window = |v: &[V]| {
             let mut w: Vec<V> = ids.iter().map(|&id| v[slot_of(id)]).collect();
@@ -236,6 +174,16 @@ impl<V: Vector> Subdomain<V> {
             w.resize(slots.len() + halo, 1.0);
             w
         };
+        let mut slot_in_order = vec![0u32; n];
+        for (slot, &id) in order.iter().enumerate() {
+            slot_in_order[id as usize] = slot as u32;
+        }
+        let (memory, memory_partners) = own_memory(
+            &world.contact_impulses(),
+            &slot_in_order,
+            &order,
+            slots.clone(),
+        );
         Ok(Self {
             config: world.config().clone(),
             planes: world.planes().to_vec(),
@@ -255,15 +203,24 @@ impl<V: Vector> Subdomain<V> {
             // its share: a grid over its own particles and ghosts, not over the whole domain
             // (whose cell count would not shrink with more ranks).
             broad_phase: Box::new(Grid::new(None, None)?),
-            search_position: Vec::new(),
-            search_radius: Vec::new(),
-            ghost_slot: Vec::new(),
+            reach: Vec::new(),
+            search: Search::default(),
             needed: Vec::new(),
             lent: Vec::new(),
             lending: [false; 2],
             found: Vec::new(),
+            candidates: Vec::new(),
             pairs: Vec::new(),
+            partners: Vec::new(),
+            rows: Vec::new(),
             plane_contacts: Vec::new(),
+            plane_rows: Vec::new(),
+            memory,
+            memory_partners,
+            arrived_pairs: Vec::new(),
+            arrived_planes: Vec::new(),
+            rerouting: false,
+            leftovers: Leftovers::default(),
             blocks: Blocks::default(),
             steps: world.steps_taken(),
             traffic: Traffic::default(),
@@ -299,9 +256,12 @@ impl<V: Vector> Subdomain<V> {
     /// Advances every rank's share by one step. Collective: every rank calls it.
     pub fn step<T: Transport + ?Sized>(&mut self, transport: &mut T) -> StepStats {
         let mut traffic = std::mem::take(&mut self.traffic);
-        let stats = self.step_with(&mut Link {
-            transport,
-            traffic: &mut traffic,
+        let stats = step::advance(&mut Stepping {
+            sub: self,
+            link: &mut Link {
+                transport,
+                traffic: &mut traffic,
+            },
         });
         self.traffic = traffic;
         stats
@@ -309,7 +269,8 @@ impl<V: Vector> Subdomain<V> {
 
     /// The whole world's state, on rank 0 (`None` on the others). Collective.
     pub fn gather<T: Transport + ?Sized>(&mut self, transport: &mut T) -> Option<Snapshot<V>> {
-        let mut outgoing: Vec<Writer> = (0..transport.size()).map(|_| Writer::default()).collect();
+        let size = transport.size();
+        let mut outgoing: Vec<Writer> = (0..size).map(|_| Writer::default()).collect();
         for s in 0..self.own {
             outgoing[0]
                 .u32(self.ids[s])
@@ -318,12 +279,22 @@ impl<V: Vector> Subdomain<V> {
                 .f64(self.window.radius[s])
                 .f64(self.window.mass[s]);
         }
+        let mut remembered: Vec<Writer> = (0..size).map(|_| Writer::default()).collect();
+        let w = &mut remembered[0];
+        w.u64(self.memory.pairs.len() as u64);
+        for (&(i, _, impulse), &partner) in self.memory.pairs.iter().zip(&self.memory_partners) {
+            w.u32(self.ids[i as usize]).u32(partner).f64(impulse);
+        }
+        for &(s, plane, impulse) in &self.memory.planes {
+            w.u32(self.ids[s as usize]).u32(plane).f64(impulse);
+        }
         let rank = transport.rank();
-        let received = Link {
+        let mut link = Link {
             transport,
             traffic: &mut self.traffic,
-        }
-        .exchange(TrafficKind::Gather, outgoing);
+        };
+        let received = link.exchange(TrafficKind::Gather, outgoing);
+        let received_memory = link.exchange(TrafficKind::Gather, remembered);
         if rank != 0 {
             return None;
         }
@@ -346,73 +317,31 @@ impl<V: Vector> Subdomain<V> {
             particles.radius.push(radius);
             particles.mass.push(mass);
         }
+        let mut impulses = ContactImpulses::default();
+        for bytes in &received_memory {
+            let mut r = Reader::new(bytes);
+            for _ in 0..r.u64() {
+                let (a, b, impulse) = (r.u32(), r.u32(), r.f64());
+                impulses.pairs.push((a.min(b), a.max(b), impulse));
+            }
+            while !r.is_empty() {
+                impulses.planes.push((r.u32(), r.u32(), r.f64()));
+            }
+        }
+        let key = |e: &(u32, u32, f64)| (e.0, e.1);
+        impulses.pairs.sort_unstable_by_key(key);
+        impulses.planes.sort_unstable_by_key(key);
         Some(Snapshot {
             steps_taken: self.steps,
             storage_order,
             particles,
+            impulses,
         })
     }
 
-    fn step_with<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) -> StepStats {
-        if self.steps % REORDER_INTERVAL == 0 {
-            self.migrate(link);
-        }
-        let dt = self.config.dt;
-        let dv = self.config.gravity * dt;
-        for (x, v) in self.window.position[..self.own]
-            .iter_mut()
-            .zip(&mut self.window.velocity[..self.own])
-        {
-            *v += dv;
-            *x += *v * dt;
-        }
-        self.find_contacts(link);
-        self.agree_on_borrowing(link);
-        let parallel = self.partition.slots() >= PARALLEL_MIN;
-        self.blocks.plan(
-            self.own + self.halo,
-            self.partition.block(),
-            &self.pairs,
-            &self.plane_contacts,
-            parallel,
-            self.partition.blocks_of(self.rank).start,
-        );
-        let leftovers = Leftovers::gather(link, self);
-        let mut exchange = Lender {
-            link,
-            partition: &self.partition,
-            rank: self.rank,
-            first_slot: self.first_slot,
-            own: self.own,
-            needed: &self.needed,
-            lent: &self.lent,
-            lending: self.lending,
-            leftovers: &leftovers,
-        };
-        let solve = solver::resolve(
-            &mut exchange,
-            &self.config,
-            &mut self.window,
-            Contacts {
-                pairs: &self.pairs,
-                plane_contacts: &self.plane_contacts,
-                planes: &self.planes,
-                blocks: &self.blocks,
-            },
-        );
-        self.steps += 1;
-        let counts = link.sum(&[self.pairs.len() as u64, self.plane_contacts.len() as u64]);
-        StepStats {
-            contacts: counts[0] as usize,
-            plane_contacts: counts[1] as usize,
-            velocity_iterations: solve.iterations,
-            responses: solve.responses,
-            capped: solve.capped,
-        }
-    }
-
     /// The spatial sort of [`World`], across ranks: every particle goes to the slot (and so to
-    /// the rank) the whole world's sort would give it.
+    /// the rank) the whole world's sort would give it, with the remembered impulses of the
+    /// contacts it owned (placed again at the next contact search).
     fn migrate<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
         let n = self.partition.slots();
         if n == 0 {
@@ -460,20 +389,43 @@ impl<V: Vector> Subdomain<V> {
         // Each particle goes to the rank whose range of values holds it: only the particles
         // that crossed a border move.
         let mut outgoing: Vec<Writer> = (0..link.ranks()).map(|_| Writer::default()).collect();
+        let (pairs, planes) = (&self.memory.pairs, &self.memory.planes);
         for &(value, s) in &order {
+            let w = &mut outgoing[splits.partition_point(|&split| split <= value)];
             let s = s as usize;
-            outgoing[splits.partition_point(|&split| split <= value)]
-                .u64(value)
+            w.u64(value)
                 .vector(self.window.position[s])
                 .vector(self.window.velocity[s])
                 .f64(self.window.radius[s])
                 .f64(self.window.mass[s]);
+            let mine = pairs.partition_point(|e| (e.0 as usize) < s)
+                ..pairs.partition_point(|e| (e.0 as usize) <= s);
+            w.u32(mine.len() as u32);
+            for k in mine {
+                w.u32(self.memory_partners[k]).f64(pairs[k].2);
+            }
+            let mine = planes.partition_point(|e| (e.0 as usize) < s)
+                ..planes.partition_point(|e| (e.0 as usize) <= s);
+            w.u32(mine.len() as u32);
+            for k in mine {
+                w.u32(planes[k].1).f64(planes[k].2);
+            }
         }
         let mut arrived: Vec<(u64, V, V, f64, f64)> = Vec::with_capacity(own);
+        self.arrived_pairs.clear();
+        self.arrived_planes.clear();
         for bytes in link.exchange(TrafficKind::Migration, outgoing) {
             let mut r = Reader::new(&bytes);
             while !r.is_empty() {
-                arrived.push((r.u64(), r.vector(), r.vector(), r.f64(), r.f64()));
+                let record = (r.u64(), r.vector(), r.vector(), r.f64(), r.f64());
+                let id = record.0 as u32;
+                arrived.push(record);
+                for _ in 0..r.u32() {
+                    self.arrived_pairs.push((id, r.u32(), r.f64()));
+                }
+                for _ in 0..r.u32() {
+                    self.arrived_planes.push((id, r.u32(), r.f64()));
+                }
             }
         }
         arrived.sort_unstable_by_key(|a| a.0);
@@ -485,6 +437,9 @@ impl<V: Vector> Subdomain<V> {
             self.window.radius[s] = radius;
             self.window.mass[s] = mass;
         }
+        self.memory.clear();
+        self.memory_partners.clear();
+        self.rerouting = true;
     }
 
     /// The sort values where ranks 1.. start: the value at global position `first slot of
@@ -573,289 +528,360 @@ impl<V: Vector> Subdomain<V> {
         }
     }
 
-    /// Receives ghosts, runs the broad phase over own, borrowed and ghost particles, and keeps
-    /// the contacts whose lower slot is own; then the own plane contacts.
+    /// Receives ghosts (the particles of other ranks within reach of own ones), runs the broad
+    /// phase over own and ghost particles and keeps the candidates whose lower slot is own;
+    /// then the own plane candidates, the rows, and the remembered impulses.
     fn find_contacts<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
         let own = self.own;
-        // Any particle within r_i + r_j <= 2 max_radius of an own one lies in the own
-        // bounding box grown by that (widened against rounding) on every axis.
-        let reach = 2.0 * self.max_radius;
+        let dt = self.config.dt;
+        let fall = self.config.gravity.length_squared().sqrt() * dt;
+        self.reach.clear();
+        for s in 0..own {
+            let (v, r) = (self.window.velocity[s], self.window.radius[s]);
+            self.reach
+                .push(solver::reach(r, v.length_squared().sqrt() + fall, dt));
+        }
+        let max_reach = self.reach.iter().copied().fold(0.0, f64::max);
+        // A particle j of another rank can reach an own one only from within the own bounding
+        // box grown by this rank's largest reach plus j's rank's: each rank sends its box and
+        // largest reach, and the others grow it by their own (widened against rounding).
         let mut mine = Writer::default();
         if own > 0 {
             let b = bounding_box(&self.window.position[..own]);
-            let mut min = [0.0; 3];
-            let mut max = [0.0; 3];
-            for a in 0..V::DIM {
-                min[a] = b.min.get(a) - widened_reach(b.min.get(a), reach);
-                max[a] = b.max.get(a) + widened_reach(b.max.get(a), reach);
-            }
-            mine.vector(V::from_slice(&min)).vector(V::from_slice(&max));
+            mine.vector(b.min).vector(b.max).f64(max_reach);
         }
         let boxes = link.gather(TrafficKind::Ghosts, &mine.0);
         let mut outgoing: Vec<Writer> = (0..link.ranks()).map(|_| Writer::default()).collect();
         for (to, bytes) in boxes.iter().enumerate() {
-            if to == self.rank || bytes.is_empty() {
+            if to == self.rank || bytes.is_empty() || own == 0 {
                 continue;
             }
             let mut r = Reader::new(bytes);
-            let (min, max): (V, V) = (r.vector(), r.vector());
+            let (min, max, reach): (V, V, f64) = (r.vector(), r.vector(), r.f64());
+            let grow = reach + max_reach;
+            let mut lo = [0.0; 3];
+            let mut hi = [0.0; 3];
+            for a in 0..V::DIM {
+                lo[a] = min.get(a) - widened_reach(min.get(a), grow);
+                hi[a] = max.get(a) + widened_reach(max.get(a), grow);
+            }
             let w = &mut outgoing[to];
             for s in 0..own {
                 let x = self.window.position[s];
-                if (0..V::DIM).all(|a| x.get(a) >= min.get(a) && x.get(a) <= max.get(a)) {
+                if (0..V::DIM).all(|a| x.get(a) >= lo[a] && x.get(a) <= hi[a]) {
                     w.u32((self.first_slot + s) as u32)
+                        .u32(self.ids[s])
                         .vector(x)
+                        .f64(self.reach[s])
                         .f64(self.window.radius[s])
                         .f64(self.window.mass[s]);
                 }
             }
         }
-        // Own particles, then the ghosts. The borrowed block's slots are searched only as
-        // ghosts: those out of reach keep stale values, which no contact will read.
-        self.search_position.clear();
-        self.search_position
-            .extend_from_slice(&self.window.position[..own]);
-        self.search_radius.clear();
-        self.search_radius
-            .extend_from_slice(&self.window.radius[..own]);
-        self.ghost_slot.clear();
-        let first = self.first_slot;
-        let borrowed = first + own..first + own + self.halo;
+        let search = &mut self.search;
+        search.clear();
+        for s in 0..own {
+            search.push(
+                self.window.position[s],
+                self.reach[s],
+                self.window.radius[s],
+                self.window.mass[s],
+                self.ids[s],
+            );
+        }
         for bytes in link.exchange(TrafficKind::Ghosts, outgoing) {
             let mut r = Reader::new(&bytes);
             while !r.is_empty() {
-                let (slot, x, radius, mass) = (r.u32(), r.vector(), r.f64(), r.f64());
-                if borrowed.contains(&(slot as usize)) {
-                    let w = slot as usize - first;
-                    (
-                        self.window.position[w],
-                        self.window.radius[w],
-                        self.window.mass[w],
-                    ) = (x, radius, mass);
-                }
-                self.ghost_slot.push(slot);
-                self.search_position.push(x);
-                self.search_radius.push(radius);
+                let (slot, id) = (r.u32(), r.u32());
+                let (x, reach, radius, mass) = (r.vector(), r.f64(), r.f64(), r.f64());
+                search.ghost_slot.push(slot);
+                search.push(x, reach, radius, mass, id);
             }
         }
         self.broad_phase
-            .find_pairs(&self.search_position, &self.search_radius, &mut self.found);
-        let slot = |k: u32| -> usize {
-            let k = k as usize;
-            if k < own {
-                first + k
-            } else {
-                self.ghost_slot[k - own] as usize
-            }
-        };
-        self.pairs.clear();
+            .find_pairs(&search.position, &search.reach, &mut self.found);
+        let first = self.first_slot;
+        self.candidates.clear();
         for &(a, b) in &self.found {
-            let (sa, sb) = (slot(a), slot(b));
-            let (i, j) = (sa.min(sb), sa.max(sb));
+            let (a, b) = (a as usize, b as usize);
+            let (sa, sb) = (search.slot(a, own, first), search.slot(b, own, first));
+            let ((i, ki), (j, kj)) = if sa < sb {
+                ((sa, a), (sb, b))
+            } else {
+                ((sb, b), (sa, a))
+            };
             if (first..first + own).contains(&i) {
-                self.pairs.push(((i - first) as u32, (j - first) as u32));
+                self.candidates.push((
+                    ((i - first) as u32, (j - first) as u32),
+                    (ki as u32, kj as u32),
+                ));
             }
         }
-        self.pairs.sort_unstable();
+        self.candidates.sort_unstable_by_key(|c| c.0);
+        self.pairs.clear();
+        self.pairs.extend(self.candidates.iter().map(|c| c.0));
+        self.partners.clear();
+        self.partners
+            .extend(self.candidates.iter().map(|c| search.id[c.1 .1 as usize]));
         self.plane_contacts.clear();
+        self.plane_rows.clear();
         for s in 0..own {
+            let x = self.window.position[s];
             for (p, plane) in self.planes.iter().enumerate() {
-                if plane.signed_distance(self.window.position[s]) < self.window.radius[s] {
+                if plane.signed_distance(x) < self.reach[s] {
                     self.plane_contacts.push((s as u32, p as u32));
+                    self.plane_rows.push(PlaneRow::new(
+                        plane,
+                        p as u32,
+                        x,
+                        self.window.radius[s],
+                        dt,
+                    ));
                 }
             }
         }
+        let parallel = self.partition.slots() >= PARALLEL_MIN;
+        let candidates = &self.candidates;
+        let search = &self.search;
+        solver::prepare_rows(&mut self.rows, &self.pairs, false, |_| Row::default());
+        for (row, &(_, (ki, kj))) in self.rows.iter_mut().zip(candidates) {
+            let (ki, kj) = (ki as usize, kj as usize);
+            *row = Row::new(
+                search.position[ki],
+                search.position[kj],
+                search.radius[ki],
+                search.radius[kj],
+                search.mass[ki],
+                search.mass[kj],
+                dt,
+            );
+        }
+        self.agree_on_borrowing(link);
+        self.blocks.plan(
+            own + self.halo,
+            self.partition.block(),
+            &self.pairs,
+            &self.plane_contacts,
+            parallel,
+            self.partition.blocks_of(self.rank).start,
+        );
+        if self.rerouting {
+            self.place_arrived(link);
+            self.rerouting = false;
+        }
+        let rows = &mut self.rows;
+        Memory::recall(&self.memory.pairs, &self.pairs, |k, impulse| {
+            rows[k].impulse = impulse;
+        });
+        let plane_rows = &mut self.plane_rows;
+        Memory::recall(&self.memory.planes, &self.plane_contacts, |k, impulse| {
+            plane_rows[k].impulse = impulse;
+        });
+        self.leftovers.gather(
+            link,
+            self.first_slot,
+            own,
+            &self.blocks,
+            &self.pairs,
+            &self.rows,
+        );
     }
+
+    /// After a migration: turns the records that arrived with the particles into remembered
+    /// impulses of this rank's contacts. A record whose partner now has the lower slot on
+    /// another rank goes to that rank; one whose partner is out of reach is dropped (its pair
+    /// is no candidate this step, which is what one world does with it too). Collective.
+    fn place_arrived<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
+        let (own, first) = (self.own, self.first_slot);
+        let search = &mut self.search;
+        search.by_id.clear();
+        search
+            .by_id
+            .extend(search.id.iter().enumerate().map(|(k, &id)| (id, k as u32)));
+        search.by_id.sort_unstable();
+        let mut kept: Vec<(u32, u32, f64, u32)> = Vec::new();
+        let mut outgoing: Vec<Writer> = (0..link.ranks()).map(|_| Writer::default()).collect();
+        for &(a, b, impulse) in &self.arrived_pairs {
+            let (Some(ka), Some(kb)) = (search.index_of(a), search.index_of(b)) else {
+                continue;
+            };
+            let (ga, gb) = (search.slot(ka, own, first), search.slot(kb, own, first));
+            if ga < gb {
+                kept.push(((ga - first) as u32, (gb - first) as u32, impulse, b));
+            } else if kb < own {
+                kept.push(((gb - first) as u32, (ga - first) as u32, impulse, a));
+            } else {
+                outgoing[self.partition.owner_of_slot(gb)]
+                    .u32(b)
+                    .u32(a)
+                    .f64(impulse);
+            }
+        }
+        for bytes in link.exchange(TrafficKind::Migration, outgoing) {
+            let mut r = Reader::new(&bytes);
+            while !r.is_empty() {
+                let (b, a, impulse) = (r.u32(), r.u32(), r.f64());
+                if let (Some(kb), Some(ka)) = (search.index_of(b), search.index_of(a)) {
+                    let ga = search.slot(ka, own, first);
+                    kept.push((kb as u32, (ga - first) as u32, impulse, a));
+                }
+            }
+        }
+        kept.sort_unstable_by_key(|e| (e.0, e.1));
+        self.memory.pairs.clear();
+        self.memory_partners.clear();
+        for (i, j, impulse, partner) in kept {
+            self.memory.pairs.push((i, j, impulse));
+            self.memory_partners.push(partner);
+        }
+        self.memory.planes.clear();
+        for &(a, plane, impulse) in &self.arrived_planes {
+            if let Some(k) = search.index_of(a) {
+                self.memory.planes.push((k as u32, plane, impulse));
+            }
+        }
+        self.memory.planes.sort_unstable_by_key(|e| (e.0, e.1));
+    }
+}
+
+/// A subdomain stepping with its link to the other ranks: what [`step::advance`] drives.
+struct Stepping<'s, 'l, 't, V: Vector, T: ?Sized> {
+    sub: &'s mut Subdomain<V>,
+    link: &'l mut Link<'t, T>,
+}
+
+impl<V: Vector, T: Transport + ?Sized> Stepping<'_, '_, '_, V, T> {
+    /// Runs `phase` with this rank's exchange and contacts.
+    fn solve<R>(
+        &mut self,
+        phase: impl FnOnce(&mut Lender<'_, '_, T, V>, &mut Particles<V>, &mut Contacts<'_, V>) -> R,
+    ) -> R {
+        let s = &mut *self.sub;
+        let mut exchange = Lender {
+            link: self.link,
+            partition: &s.partition,
+            rank: s.rank,
+            first_slot: s.first_slot,
+            own: s.own,
+            needed: &s.needed,
+            lent: &s.lent,
+            lending: s.lending,
+            leftovers: &mut s.leftovers,
+        };
+        let mut contacts = Contacts {
+            pairs: &s.pairs,
+            rows: &mut s.rows,
+            plane_contacts: &s.plane_contacts,
+            plane_rows: &mut s.plane_rows,
+            planes: &s.planes,
+            blocks: &s.blocks,
+        };
+        phase(&mut exchange, &mut s.window, &mut contacts)
+    }
+}
+
+impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
+    fn sort_along_space(&mut self) {
+        if self.sub.steps % REORDER_INTERVAL == 0 {
+            self.sub.migrate(self.link);
+        }
+    }
+
+    fn find_contacts(&mut self) {
+        self.sub.find_contacts(self.link);
+    }
+
+    fn integrate(&mut self) -> VelocitySolve {
+        let settings = self.sub.config.solver_settings();
+        let (gravity, dt) = (self.sub.config.gravity, self.sub.config.dt);
+        let own = self.sub.own;
+        self.solve(|exchange, window, contacts| {
+            let moving = Moving {
+                position: &mut window.position,
+                velocity: &mut window.velocity,
+                own,
+            };
+            solver::integrate(exchange, &settings, gravity, dt, moving, contacts)
+        })
+    }
+
+    fn separate(&mut self) -> f64 {
+        let settings = self.sub.config.solver_settings();
+        self.solve(|exchange, window, contacts| {
+            solver::separate(exchange, &settings, &mut window.position, contacts)
+        })
+    }
+
+    fn remember(&mut self) {
+        let s = &mut *self.sub;
+        s.memory.pairs.clear();
+        s.memory_partners.clear();
+        for ((&(i, j), row), &partner) in s.pairs.iter().zip(&s.rows).zip(&s.partners) {
+            if row.kept > 0.0 {
+                s.memory.pairs.push((i, j, row.kept));
+                s.memory_partners.push(partner);
+            }
+        }
+        let plane_rows = &s.plane_rows;
+        Memory::store(&mut s.memory.planes, &s.plane_contacts, |k| {
+            plane_rows[k].kept
+        });
+    }
+
+    fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats {
+        let s = &mut *self.sub;
+        s.steps += 1;
+        let touching = s.rows.iter().filter(|r| r.touching).count() as u64;
+        let on_planes = s.plane_rows.iter().filter(|r| r.touching).count() as u64;
+        let counts = self.link.sum(&[touching, on_planes]);
+        StepStats {
+            contacts: counts[0] as usize,
+            plane_contacts: counts[1] as usize,
+            velocity_iterations: solve.iterations,
+            responses: solve.responses,
+            capped: solve.capped,
+            max_overlap,
+        }
+    }
+}
+
+/// The remembered impulses of the contacts whose lower slot lies in `own_slots`, as slots
+/// relative to its start, with each pair's `j` id; `slot_of[id]` and `order[slot]` give the
+/// storage order the subdomain starts from.
+fn own_memory(
+    impulses: &ContactImpulses,
+    slot_of: &[u32],
+    order: &[u32],
+    own_slots: std::ops::Range<usize>,
+) -> (Memory, Vec<u32>) {
+    let first = own_slots.start;
+    let mut pairs: Vec<(u32, u32, f64, u32)> = Vec::new();
+    for &(a, b, impulse) in &impulses.pairs {
+        let (sa, sb) = (slot_of[a as usize] as usize, slot_of[b as usize] as usize);
+        let (i, j) = (sa.min(sb), sa.max(sb));
+        if own_slots.contains(&i) {
+            pairs.push(((i - first) as u32, (j - first) as u32, impulse, order[j]));
+        }
+    }
+    pairs.sort_unstable_by_key(|e| (e.0, e.1));
+    let mut memory = Memory::default();
+    let mut partners = Vec::with_capacity(pairs.len());
+    for (i, j, impulse, partner) in pairs {
+        memory.pairs.push((i, j, impulse));
+        partners.push(partner);
+    }
+    for &(a, plane, impulse) in &impulses.planes {
+        let s = slot_of[a as usize] as usize;
+        if own_slots.contains(&s) {
+            memory.planes.push(((s - first) as u32, plane, impulse));
+        }
+    }
+    memory.planes.sort_unstable_by_key(|e| (e.0, e.1));
+    (memory, partners)
 }
 
 /// Where a particle goes in the storage order: by cell of the sort grid, ties by id, exactly
 /// as [`World`]'s counting sort orders them; unique per particle.
 fn sort_value<V: Vector>(layout: &GridLayout, x: V, id: u32) -> u64 {
     ((layout.linear(layout.cell_coords(x)) as u64) << 32) | id as u64
-}
-
-/// The rank that borrows `rank`'s first block (in the sweeps of `parity`, or at all when
-/// `None`).
-fn borrower(partition: &Partition, rank: usize, parity: Option<usize>) -> Option<usize> {
-    let first = partition.blocks_of(rank);
-    if first.is_empty() || first.start == 0 {
-        return None;
-    }
-    let before = first.start - 1;
-    parity
-        .is_none_or(|p| before % 2 == p)
-        .then(|| partition.owner_of_block(before))
-}
-
-/// The rank whose first block `rank` borrows (in the sweeps of `parity`, or at all).
-fn lender(partition: &Partition, rank: usize, parity: Option<usize>) -> Option<usize> {
-    let last = partition.blocks_of(rank).end.checked_sub(1)?;
-    let owner = partition.halo_owner(rank)?;
-    parity.is_none_or(|p| last % 2 == p).then_some(owner)
-}
-
-/// This step's leftover contacts of every rank, in global order, with the bodies of the
-/// particles they involve.
-struct Leftovers<V> {
-    /// Indices into `slots` of each contact, in global order.
-    pairs: Vec<(u32, u32)>,
-    /// Every particle some leftover involves, by ascending slot.
-    slots: Vec<u32>,
-    bodies: Vec<Body<V>>,
-    /// `slots[own.clone()]` are this rank's.
-    own: std::ops::Range<usize>,
-}
-
-impl<V: Vector> Leftovers<V> {
-    fn gather<T: Transport + ?Sized>(link: &mut Link<'_, T>, sub: &Subdomain<V>) -> Self {
-        let first = sub.first_slot as u32;
-        let mut mine = Writer::default();
-        for &(i, j) in &sub.blocks.leftovers {
-            mine.u32(first + i).u32(first + j);
-        }
-        let mut global = Vec::new();
-        for bytes in link.gather(TrafficKind::Leftovers, &mine.0) {
-            let mut r = Reader::new(&bytes);
-            while !r.is_empty() {
-                global.push((r.u32(), r.u32()));
-            }
-        }
-        let mut slots: Vec<u32> = global.iter().flat_map(|&(i, j)| [i, j]).collect();
-        slots.sort_unstable();
-        slots.dedup();
-        let own_slots = first..first + sub.own as u32;
-        let own = slots.partition_point(|&s| s < own_slots.start)
-            ..slots.partition_point(|&s| s < own_slots.end);
-        let index = |s: u32| slots.binary_search(&s).unwrap_or_default() as u32;
-        let pairs = global.iter().map(|&(i, j)| (index(i), index(j))).collect();
-        let mut bodies = Vec::new();
-        if !slots.is_empty() {
-            let mut w = Writer::default();
-            for &s in &slots[own.clone()] {
-                let s = (s - first) as usize;
-                w.vector(sub.window.position[s])
-                    .f64(sub.window.radius[s])
-                    .f64(sub.window.mass[s]);
-            }
-            for bytes in link.gather(TrafficKind::Leftovers, &w.0) {
-                let mut r = Reader::new(&bytes);
-                while !r.is_empty() {
-                    bodies.push(Body {
-                        position: r.vector(),
-                        radius: r.f64(),
-                        mass: r.f64(),
-                    });
-                }
-            }
-        }
-        Self {
-            pairs,
-            slots,
-            bodies,
-            own,
-        }
-    }
-}
-
-/// The solver's [`Exchange`] across ranks: lends and returns first blocks around the block
-/// pairs on a border, runs the leftovers everywhere, adds up counts.
-struct Lender<'a, 'l, T: ?Sized, V> {
-    link: &'a mut Link<'l, T>,
-    partition: &'a Partition,
-    rank: usize,
-    first_slot: usize,
-    own: usize,
-    needed: &'a [u32],
-    lent: &'a [u32],
-    lending: [bool; 2],
-    leftovers: &'a Leftovers<V>,
-}
-
-impl<T: Transport + ?Sized, V: Vector> Lender<'_, '_, T, V> {
-    /// Lends (`back == false`) or returns (`back == true`) the borrowed particles the block
-    /// pairs of `parity` touch.
-    fn swap_halo(&mut self, parity: usize, data: &mut [V], back: bool) {
-        if !self.lending[parity] {
-            return;
-        }
-        let borrower = borrower(self.partition, self.rank, Some(parity));
-        let lender = lender(self.partition, self.rank, Some(parity));
-        let own = self.own;
-        let mut outgoing: Vec<Writer> = (0..self.link.ranks()).map(|_| Writer::default()).collect();
-        match (back, borrower, lender) {
-            (false, Some(to), _) => {
-                for &k in self.lent {
-                    outgoing[to].vector(data[k as usize]);
-                }
-            }
-            (true, _, Some(to)) => {
-                for &k in self.needed {
-                    outgoing[to].vector(data[own + k as usize]);
-                }
-            }
-            _ => {}
-        }
-        let received = self.link.exchange(TrafficKind::Halo, outgoing);
-        match (back, borrower, lender) {
-            (false, _, Some(from)) => {
-                let mut r = Reader::new(&received[from]);
-                for &k in self.needed {
-                    data[own + k as usize] = r.vector();
-                }
-            }
-            (true, Some(from), _) => {
-                let mut r = Reader::new(&received[from]);
-                for &k in self.lent {
-                    data[k as usize] = r.vector();
-                }
-            }
-            _ => {}
-        }
-    }
-}
-
-impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
-    fn before_blocks(&mut self, parity: usize, data: &mut [V]) {
-        self.swap_halo(parity, data, false);
-    }
-
-    fn after_blocks(&mut self, parity: usize, data: &mut [V]) {
-        self.swap_halo(parity, data, true);
-    }
-
-    fn leftovers<B, R>(&mut self, _blocks: &Blocks, data: &mut [V], _body: &B, rule: &R) -> u64
-    where
-        B: Fn(usize) -> Body<V>,
-        R: Fn(&Body<V>, &Body<V>, &mut V, &mut V) -> bool,
-    {
-        let l = self.leftovers;
-        if l.pairs.is_empty() {
-            return 0;
-        }
-        let mut mine = Writer::default();
-        for &s in &l.slots[l.own.clone()] {
-            mine.vector(data[s as usize - self.first_slot]);
-        }
-        let mut values: Vec<V> = Vec::with_capacity(l.slots.len());
-        for bytes in self.link.gather(TrafficKind::Leftovers, &mine.0) {
-            let mut r = Reader::new(&bytes);
-            while !r.is_empty() {
-                values.push(r.vector());
-            }
-        }
-        let mut changed = 0;
-        for &(a, b) in &l.pairs {
-            let (a, b) = (a as usize, b as usize);
-            let (va, vb) = pair_mut(&mut values, a, b);
-            changed += rule(&l.bodies[a], &l.bodies[b], va, vb) as u64;
-        }
-        for k in l.own.clone() {
-            data[l.slots[k] as usize - self.first_slot] = values[k];
-        }
-        changed
-    }
-
-    fn total(&mut self, local: u64) -> u64 {
-        self.link.sum(&[local])[0]
-    }
 }

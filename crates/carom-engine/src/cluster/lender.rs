@@ -1,0 +1,275 @@
+//! The solver's [`Exchange`] across ranks: the next rank's first block lent around the block
+//! pairs on a border, the leftover contacts run on every rank in their global order, and the
+//! counts that stop each phase added up.
+
+use super::partition::Partition;
+use super::traffic::{Link, TrafficKind};
+use super::transport::Transport;
+use super::wire::{Reader, Writer};
+use crate::broadphase::Pair;
+use crate::schedule::{pair_mut, Blocks, Exchange, PairRule};
+use crate::solver::Row;
+use crate::vector::Vector;
+
+/// The rank that borrows `rank`'s first block (in the sweeps of `parity`, or at all when
+/// `None`).
+pub(super) fn borrower(partition: &Partition, rank: usize, parity: Option<usize>) -> Option<usize> {
+    let first = partition.blocks_of(rank);
+    if first.is_empty() || first.start == 0 {
+        return None;
+    }
+    let before = first.start - 1;
+    parity
+        .is_none_or(|p| before % 2 == p)
+        .then(|| partition.owner_of_block(before))
+}
+
+/// The rank whose first block `rank` borrows (in the sweeps of `parity`, or at all).
+pub(super) fn lender(partition: &Partition, rank: usize, parity: Option<usize>) -> Option<usize> {
+    let last = partition.blocks_of(rank).end.checked_sub(1)?;
+    let owner = partition.halo_owner(rank)?;
+    parity.is_none_or(|p| last % 2 == p).then_some(owner)
+}
+
+/// Encodes a solver row.
+pub(super) fn write_row<V: Vector>(w: &mut Writer, row: &Row<V>) {
+    w.vector(row.normal)
+        .f64(row.mass[0])
+        .f64(row.mass[1])
+        .f64(row.inverse_mass[0])
+        .f64(row.inverse_mass[1])
+        .f64(row.effective_mass)
+        .f64(row.radius[0])
+        .f64(row.radius[1])
+        .f64(row.impulse)
+        .f64(row.kept)
+        .f64(row.bounce)
+        .f64(row.overlap)
+        .f64(row.allowance)
+        .u32(row.touching as u32 | (row.met as u32) << 1);
+}
+
+/// Decodes a solver row.
+pub(super) fn read_row<V: Vector>(r: &mut Reader) -> Row<V> {
+    Row {
+        normal: r.vector(),
+        mass: [r.f64(), r.f64()],
+        inverse_mass: [r.f64(), r.f64()],
+        effective_mass: r.f64(),
+        radius: [r.f64(), r.f64()],
+        impulse: r.f64(),
+        kept: r.f64(),
+        bounce: r.f64(),
+        overlap: r.f64(),
+        allowance: r.f64(),
+        touching: false,
+        met: false,
+    }
+    .flags(r.u32())
+}
+
+impl<V> Row<V> {
+    fn flags(mut self, bits: u32) -> Self {
+        self.touching = bits & 1 != 0;
+        self.met = bits & 2 != 0;
+        self
+    }
+}
+
+/// This step's leftover contacts of every rank, in global order, with their rows: every rank
+/// runs them all on its own copy, so the copies stay equal.
+#[derive(Debug, Default)]
+pub(super) struct Leftovers<V> {
+    /// Indices into `slots` of each contact, in global order.
+    pairs: Vec<(u32, u32)>,
+    /// Every contact's row.
+    rows: Vec<Row<V>>,
+    /// Every particle some leftover involves, by ascending global slot.
+    slots: Vec<u32>,
+    /// `slots[own.clone()]` are this rank's.
+    own: std::ops::Range<usize>,
+    /// `rows[own_rows.clone()]` are this rank's leftovers, in its own order.
+    own_rows: std::ops::Range<usize>,
+}
+
+impl<V: Vector> Leftovers<V> {
+    /// Collects every rank's leftovers (`blocks.leftovers`, indices into `pairs`, whose slots
+    /// are relative to `first_slot`) with their rows. Collective.
+    pub fn gather<T: Transport + ?Sized>(
+        &mut self,
+        link: &mut Link<'_, T>,
+        first_slot: usize,
+        own: usize,
+        blocks: &Blocks,
+        pairs: &[Pair],
+        rows: &[Row<V>],
+    ) {
+        let first = first_slot as u32;
+        let mut mine = Writer::default();
+        for &k in &blocks.leftovers {
+            let (i, j) = pairs[k as usize];
+            mine.u32(first + i).u32(first + j);
+            write_row(&mut mine, &rows[k as usize]);
+        }
+        let mut global = Vec::new();
+        self.rows.clear();
+        let me = link.transport.rank();
+        for (rank, bytes) in link
+            .gather(TrafficKind::Leftovers, &mine.0)
+            .iter()
+            .enumerate()
+        {
+            let start = self.rows.len();
+            let mut r = Reader::new(bytes);
+            while !r.is_empty() {
+                global.push((r.u32(), r.u32()));
+                self.rows.push(read_row(&mut r));
+            }
+            if rank == me {
+                self.own_rows = start..self.rows.len();
+            }
+        }
+        self.slots.clear();
+        self.slots.extend(global.iter().flat_map(|&(i, j)| [i, j]));
+        self.slots.sort_unstable();
+        self.slots.dedup();
+        let own_slots = first..first + own as u32;
+        self.own = self.slots.partition_point(|&s| s < own_slots.start)
+            ..self.slots.partition_point(|&s| s < own_slots.end);
+        let slots = &self.slots;
+        let index = |s: u32| slots.binary_search(&s).unwrap_or_default() as u32;
+        self.pairs.clear();
+        self.pairs
+            .extend(global.iter().map(|&(i, j)| (index(i), index(j))));
+    }
+}
+
+/// The [`Exchange`] of one rank for one phase.
+pub(super) struct Lender<'a, 'l, T: ?Sized, V> {
+    pub link: &'a mut Link<'l, T>,
+    pub partition: &'a Partition,
+    pub rank: usize,
+    pub first_slot: usize,
+    pub own: usize,
+    /// Borrowed slots (offsets into the next rank's first block) this step's contacts touch.
+    pub needed: &'a [u32],
+    /// Offsets into the own first block that the previous rank's contacts touch this step.
+    pub lent: &'a [u32],
+    /// Whether any rank borrows anything in the sweeps of parity 0 and 1 this step.
+    pub lending: [bool; 2],
+    pub leftovers: &'a mut Leftovers<V>,
+}
+
+impl<T: Transport + ?Sized, V: Vector> Lender<'_, '_, T, V> {
+    /// Lends (`back == false`) or returns (`back == true`) the borrowed particles the block
+    /// pairs of `parity` touch.
+    fn swap_halo(&mut self, parity: usize, data: &mut [V], back: bool) {
+        if !self.lending[parity] {
+            return;
+        }
+        let borrower = borrower(self.partition, self.rank, Some(parity));
+        let lender = lender(self.partition, self.rank, Some(parity));
+        let own = self.own;
+        let mut outgoing: Vec<Writer> = (0..self.link.ranks()).map(|_| Writer::default()).collect();
+        match (back, borrower, lender) {
+            (false, Some(to), _) => {
+                for &k in self.lent {
+                    outgoing[to].vector(data[k as usize]);
+                }
+            }
+            (true, _, Some(to)) => {
+                for &k in self.needed {
+                    outgoing[to].vector(data[own + k as usize]);
+                }
+            }
+            _ => {}
+        }
+        let received = self.link.exchange(TrafficKind::Halo, outgoing);
+        match (back, borrower, lender) {
+            (false, _, Some(from)) => {
+                let mut r = Reader::new(&received[from]);
+                for &k in self.needed {
+                    data[own + k as usize] = r.vector();
+                }
+            }
+            (true, Some(from), _) => {
+                let mut r = Reader::new(&received[from]);
+                for &k in self.lent {
+                    data[k as usize] = r.vector();
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
+    fn before_blocks(&mut self, parity: usize, data: &mut [V]) {
+        self.swap_halo(parity, data, false);
+    }
+
+    fn after_blocks(&mut self, parity: usize, data: &mut [V]) {
+        self.swap_halo(parity, data, true);
+    }
+
+    fn leftovers(
+        &mut self,
+        _blocks: &Blocks,
+        data: &mut [V],
+        _pairs: &[Pair],
+        _rows: &mut [Row<V>],
+        rule: &impl PairRule<V>,
+    ) -> u64 {
+        let l = &mut *self.leftovers;
+        if l.pairs.is_empty() {
+            return 0;
+        }
+        let mut mine = Writer::default();
+        for &s in &l.slots[l.own.clone()] {
+            mine.vector(data[s as usize - self.first_slot]);
+        }
+        let mut values: Vec<V> = Vec::with_capacity(l.slots.len());
+        for bytes in self.link.gather(TrafficKind::Leftovers, &mine.0) {
+            let mut r = Reader::new(&bytes);
+            while !r.is_empty() {
+                values.push(r.vector());
+            }
+        }
+        let mut changed = 0;
+        for (&(a, b), row) in l.pairs.iter().zip(l.rows.iter_mut()) {
+            let (va, vb) = pair_mut(&mut values, a as usize, b as usize);
+            changed += rule(row, va, vb) as u64;
+        }
+        for k in l.own.clone() {
+            data[l.slots[k] as usize - self.first_slot] = values[k];
+        }
+        changed
+    }
+
+    fn settle_rows(&mut self, blocks: &Blocks, rows: &mut [Row<V>]) {
+        let l = &*self.leftovers;
+        for (&k, row) in blocks.leftovers.iter().zip(&l.rows[l.own_rows.clone()]) {
+            rows[k as usize] = *row;
+        }
+    }
+
+    fn keep_impulses(&mut self) {
+        for row in &mut self.leftovers.rows {
+            row.kept = row.impulse;
+        }
+    }
+
+    fn total(&mut self, local: u64) -> u64 {
+        self.link.sum(&[local])[0]
+    }
+
+    fn largest(&mut self, local: f64) -> f64 {
+        let mut mine = Writer::default();
+        mine.f64(local);
+        self.link
+            .gather(TrafficKind::Reductions, &mine.0)
+            .iter()
+            .map(|bytes| Reader::new(bytes).f64())
+            .fold(local, f64::max)
+    }
+}

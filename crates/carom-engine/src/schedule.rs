@@ -1,0 +1,329 @@
+//! The order in which the solver visits contacts, and how that order runs on threads and
+//! across processes without changing a bit.
+//!
+//! Particles live in *storage slots* (the world keeps them sorted along space, see
+//! [`crate::world`]); contacts are pairs of slots `(i, j)`, `i < j`, sorted, each with a row of
+//! solver data ([`crate::solver::Row`]) at the same index. Slots are cut into blocks of `size`;
+//! a contact belongs to the block of its `i`. A sweep runs
+//!
+//! 1. the even blocks, each with the slots of itself and the next block (pairwise disjoint, so
+//!    they run in parallel), taking the contacts whose `j` lies in those two blocks;
+//! 2. the odd blocks, the same way;
+//! 3. the leftover contacts (those whose `j` lies further away), one after another;
+//!
+//! and plane contacts run block by block (one particle is never in two blocks). Inside a block,
+//! contacts go in sorted order. So the order of every response is fixed by the contact set and
+//! the slots alone: the same for any thread count, and the same whichever broad phase found the
+//! contacts. Running the blocks serially gives the very same bits.
+//!
+//! The same order runs across processes ([`crate::cluster`]): each process holds a run of
+//! whole blocks, and an [`Exchange`] lends it the particles of the next process's first block
+//! that its border block pair touches, runs the leftovers in their global order and adds up
+//! the counts that decide when a phase stops. Alone in one process, [`Alone`] does none of that.
+
+use crate::broadphase::Pair;
+use crate::solver::Row;
+use crate::vector::Vector;
+
+/// A particle touching a plane: `(slot, plane index)`.
+pub type PlaneContact = (u32, u32);
+
+/// How contacts are split into blocks for one step.
+#[derive(Debug, Default)]
+pub(crate) struct Blocks {
+    /// Slots per block (> 0).
+    pub size: usize,
+    /// `pairs[pair_start[b]..pair_start[b + 1]]` are block `b`'s contacts.
+    pair_start: Vec<usize>,
+    /// The same for plane contacts.
+    plane_start: Vec<usize>,
+    /// Indices (into the pairs) of the contacts whose `j` is beyond the next block, ascending.
+    pub(crate) leftovers: Vec<u32>,
+    /// Global index of block 0 (non-zero when this process holds a later run of blocks): the
+    /// even/odd split goes by global block index.
+    first_block: usize,
+    /// Run blocks on the thread pool (otherwise serially; same result).
+    parallel: bool,
+}
+
+/// A rule applied to one pair: its row and the two particles' values (velocities or
+/// positions); says whether it changed anything that should keep the sweeps going.
+pub(crate) trait PairRule<V>: Fn(&mut Row<V>, &mut V, &mut V) -> bool + Sync {}
+impl<V, F: Fn(&mut Row<V>, &mut V, &mut V) -> bool + Sync> PairRule<V> for F {}
+
+impl Blocks {
+    /// Splits this step's contacts; `pairs` and `plane_contacts` must be sorted. Slot 0 here
+    /// is the first slot of global block `first_block`.
+    pub fn plan(
+        &mut self,
+        n: usize,
+        size: usize,
+        pairs: &[Pair],
+        plane_contacts: &[PlaneContact],
+        parallel: bool,
+        first_block: usize,
+    ) {
+        self.size = size.max(1);
+        self.parallel = parallel;
+        self.first_block = first_block;
+        let count = n.div_ceil(self.size).max(1);
+        let size = self.size;
+        self.pair_start.clear();
+        self.plane_start.clear();
+        for b in 0..=count {
+            let first_slot = (b * size) as u32;
+            self.pair_start
+                .push(pairs.partition_point(|&(i, _)| i < first_slot));
+            self.plane_start
+                .push(plane_contacts.partition_point(|&(i, _)| i < first_slot));
+        }
+        self.leftovers.clear();
+        for b in 0..count {
+            let limit = ((b + 2) * size) as u32;
+            let (first, last) = (self.pair_start[b], self.pair_start[b + 1]);
+            for (k, &(_, j)) in pairs[first..last].iter().enumerate() {
+                if j >= limit {
+                    self.leftovers.push((first + k) as u32);
+                }
+            }
+        }
+    }
+
+    fn count(&self) -> usize {
+        self.pair_start.len() - 1
+    }
+
+    /// One sweep over every pair, in the fixed order: the even blocks, then the odd blocks (each
+    /// set in parallel), then the leftovers one after another. Returns how many applications
+    /// of `rule` changed something, as (this process's blocks, all leftovers). `reverse` walks
+    /// each block's pairs backwards (the leftovers always go forwards).
+    pub fn sweep_pairs<V: Vector, E: Exchange<V>>(
+        &self,
+        exchange: &mut E,
+        data: &mut [V],
+        pairs: &[Pair],
+        rows: &mut [Row<V>],
+        reverse: bool,
+        rule: &impl PairRule<V>,
+    ) -> (u64, u64) {
+        let mut changed = 0;
+        for parity in 0..2 {
+            exchange.before_blocks(parity, data);
+            changed += self.run_parity(data, pairs, rows, parity, reverse, rule);
+            exchange.after_blocks(parity, data);
+        }
+        let leftovers = exchange.leftovers(self, data, pairs, rows, rule);
+        (changed, leftovers)
+    }
+
+    /// The blocks of one global parity, each with the slots of itself and the next block.
+    fn run_parity<V: Vector>(
+        &self,
+        data: &mut [V],
+        pairs: &[Pair],
+        rows: &mut [Row<V>],
+        global_parity: usize,
+        reverse: bool,
+        rule: &impl PairRule<V>,
+    ) -> u64 {
+        let size = self.size;
+        let count = self.count();
+        let parity = (global_parity + self.first_block) % 2;
+        if parity >= count || parity * size >= data.len() {
+            return 0;
+        }
+        let spans = (count - parity).div_ceil(2);
+        let n = data.len();
+        // Span c: blocks parity + 2c and the next, as slots and as rows.
+        let slot = |c: usize| ((parity + 2 * c) * size).min(n);
+        let row = |c: usize| self.pair_start[(parity + 2 * c).min(count)];
+        let work = |c: usize,
+                    slot_base: usize,
+                    slots: &mut [V],
+                    row_base: usize,
+                    span_rows: &mut [Row<V>]| {
+            let block = parity + 2 * c;
+            let limit = slot_base + slots.len();
+            let mine = self.pair_start[block]..self.pair_start[block + 1];
+            let mut changed = 0;
+            let mut one = |k: usize| {
+                let (i, j) = pairs[k];
+                let (i, j) = (i as usize, j as usize);
+                if j < limit {
+                    // (the others are leftovers)
+                    let (a, b) = pair_mut(slots, i - slot_base, j - slot_base);
+                    changed += rule(&mut span_rows[k - row_base], a, b) as u64;
+                }
+            };
+            if reverse {
+                mine.rev().for_each(&mut one);
+            } else {
+                mine.for_each(&mut one);
+            }
+            changed
+        };
+        let (s0, r0) = (slot(0), row(0));
+        split_run(
+            self.parallel,
+            0..spans,
+            &slot,
+            &row,
+            &mut data[s0..],
+            &mut rows[r0..row(spans)],
+            &work,
+        )
+    }
+
+    /// Runs `work(slot_base, slots, plane_rows)` on every block with its own slots and its
+    /// plane contacts' rows, and adds up what they return.
+    pub fn run_planes<V: Send, R: Send>(
+        &self,
+        data: &mut [V],
+        plane_rows: &mut [R],
+        work: &(impl Fn(usize, &mut [V], usize, &mut [R]) -> u64 + Sync),
+    ) -> u64 {
+        let size = self.size;
+        let count = self.count();
+        let n = data.len();
+        let slot = |b: usize| (b * size).min(n);
+        let row = |b: usize| self.plane_start[b.min(count)];
+        let all = row(count);
+        split_run(
+            self.parallel,
+            0..count,
+            &slot,
+            &row,
+            data,
+            &mut plane_rows[..all],
+            &|_, slot_base, slots, row_base, rows| work(slot_base, slots, row_base, rows),
+        )
+    }
+}
+
+/// Runs `work(c, slot_base, slots, row_base, rows)` for every span `c` in `spans`, where span
+/// `c` owns `data[slot(c)..slot(c + 1)]` and `rows[row(c)..row(c + 1)]` (both boundaries
+/// ascending; `data` and `rows` start at span `spans.start`'s boundaries), splitting in halves
+/// on the thread pool when `parallel`. The spans are disjoint, so the result does not depend
+/// on how they are scheduled.
+fn split_run<T: Send, R: Send>(
+    parallel: bool,
+    spans: std::ops::Range<usize>,
+    slot: &(impl Fn(usize) -> usize + Sync),
+    row: &(impl Fn(usize) -> usize + Sync),
+    data: &mut [T],
+    rows: &mut [R],
+    work: &(impl Fn(usize, usize, &mut [T], usize, &mut [R]) -> u64 + Sync),
+) -> u64 {
+    let (s0, r0) = (slot(spans.start), row(spans.start));
+    if !parallel || spans.len() <= 1 {
+        let mut total = 0;
+        for c in spans {
+            let (s, r) = (slot(c) - s0, row(c) - r0);
+            let (s1, r1) = (slot(c + 1) - s0, row(c + 1) - r0);
+            total += work(c, s + s0, &mut data[s..s1], r + r0, &mut rows[r..r1]);
+        }
+        return total;
+    }
+    let mid = spans.start + spans.len() / 2;
+    let (left_data, right_data) = data.split_at_mut(slot(mid) - s0);
+    let (left_rows, right_rows) = rows.split_at_mut(row(mid) - r0);
+    let (a, b) = rayon::join(
+        || {
+            split_run(
+                true,
+                spans.start..mid,
+                slot,
+                row,
+                left_data,
+                left_rows,
+                work,
+            )
+        },
+        || {
+            split_run(
+                true,
+                mid..spans.end,
+                slot,
+                row,
+                right_data,
+                right_rows,
+                work,
+            )
+        },
+    );
+    a + b
+}
+
+/// `&mut s[i]` and `&mut s[j]` at once, for `i < j`.
+#[inline]
+pub(crate) fn pair_mut<T>(s: &mut [T], i: usize, j: usize) -> (&mut T, &mut T) {
+    let (head, tail) = s.split_at_mut(j);
+    (&mut head[i], &mut tail[0])
+}
+
+/// What one sweep needs from beyond this process's slots (see the module notes). Every method
+/// is collective across processes: all of them make the same calls in the same order.
+pub(crate) trait Exchange<V: Vector> {
+    /// Before the blocks of global parity `parity` run on `data`.
+    fn before_blocks(&mut self, parity: usize, data: &mut [V]);
+    /// After the blocks of global parity `parity` ran on `data`.
+    fn after_blocks(&mut self, parity: usize, data: &mut [V]);
+    /// Runs every leftover pair (of every process) in global order and returns how many
+    /// changed anything: the same number on every process.
+    fn leftovers(
+        &mut self,
+        blocks: &Blocks,
+        data: &mut [V],
+        pairs: &[Pair],
+        rows: &mut [Row<V>],
+        rule: &impl PairRule<V>,
+    ) -> u64;
+    /// Copies what the leftover rules changed in this process's own leftover rows back into
+    /// `rows` (a process that runs the leftovers on a copy of every process's rows).
+    fn settle_rows(&mut self, blocks: &Blocks, rows: &mut [Row<V>]);
+    /// Marks the impulses now accumulated as the ones the relax pass kept (`Row::kept`) on the
+    /// rows this exchange runs for every process (the own rows are marked by the caller).
+    fn keep_impulses(&mut self);
+    /// `local` added up over every process.
+    fn total(&mut self, local: u64) -> u64;
+    /// The largest of `local` over every process.
+    fn largest(&mut self, local: f64) -> f64;
+}
+
+/// One process holding every slot: nothing to exchange.
+pub(crate) struct Alone;
+
+impl<V: Vector> Exchange<V> for Alone {
+    #[inline]
+    fn before_blocks(&mut self, _parity: usize, _data: &mut [V]) {}
+    #[inline]
+    fn after_blocks(&mut self, _parity: usize, _data: &mut [V]) {}
+    fn leftovers(
+        &mut self,
+        blocks: &Blocks,
+        data: &mut [V],
+        pairs: &[Pair],
+        rows: &mut [Row<V>],
+        rule: &impl PairRule<V>,
+    ) -> u64 {
+        let mut changed = 0;
+        for &k in &blocks.leftovers {
+            let (i, j) = pairs[k as usize];
+            let (a, b) = pair_mut(data, i as usize, j as usize);
+            changed += rule(&mut rows[k as usize], a, b) as u64;
+        }
+        changed
+    }
+    #[inline]
+    fn settle_rows(&mut self, _blocks: &Blocks, _rows: &mut [Row<V>]) {}
+    #[inline]
+    fn keep_impulses(&mut self) {}
+    #[inline]
+    fn total(&mut self, local: u64) -> u64 {
+        local
+    }
+    #[inline]
+    fn largest(&mut self, local: f64) -> f64 {
+        local
+    }
+}

@@ -1,0 +1,45 @@
+//! One time step: the lecture's `ParticleSystem_Movement()` ("particle position update,
+//! particle velocity update, collision"), as named phases.
+//!
+//! [`crate::World`] and the cluster's [`crate::cluster::Subdomain`] both step through
+//! [`advance`], so a world split over processes takes the very same phases in the very same
+//! order as one world does; only what each phase does with its share of the particles differs.
+//!
+//! The velocities are resolved *before* the particles move (semi-implicit Euler with the
+//! contacts solved in between, as game engines do): a resting pile whose contacts cancel
+//! gravity then does not move at all, instead of sinking by `g dt^2` a step and being pushed
+//! back up.
+
+use crate::diagnostics::StepStats;
+use crate::solver::VelocitySolve;
+
+/// What a stepper does in each phase of [`advance`].
+pub(crate) trait Phases {
+    /// Every [`crate::world::REORDER_INTERVAL`] steps, sorts the particles along space so that
+    /// neighbours sit next to each other in memory (and, across processes, move to the
+    /// process that owns their slot).
+    fn sort_along_space(&mut self);
+    /// The broad phase (the lecture's hash grid, or brute force) over each particle's reach
+    /// this step, then the lecture's detection and the remembered impulses for each candidate.
+    fn find_contacts(&mut self);
+    /// Gravity (`v += g dt`), the velocity phase (the lecture's response and trap rule for
+    /// impacts, accumulated impulses for resting contacts) and the move (`x += v dt`), in
+    /// substeps when contacts can rest (see [`crate::solver::integrate`]).
+    fn integrate(&mut self) -> VelocitySolve;
+    /// The position phase (the lecture's "solution 1"); returns the largest overlap left.
+    fn separate(&mut self) -> f64;
+    /// Keeps this step's resting impulses for the next step's warm start.
+    fn remember(&mut self);
+    /// Counts the step and reports it.
+    fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats;
+}
+
+/// Advances `stepper` by one time step.
+pub(crate) fn advance(stepper: &mut impl Phases) -> StepStats {
+    stepper.sort_along_space();
+    stepper.find_contacts();
+    let solve = stepper.integrate();
+    let max_overlap = stepper.separate();
+    stepper.remember();
+    stepper.finish(solve, max_overlap)
+}
