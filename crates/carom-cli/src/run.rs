@@ -395,7 +395,11 @@ pub fn finish<V: Vector>(
         driven.seconds,
         driven.contacts_total,
         driven.contacts_max,
-        driven.capped_steps,
+        (
+            driven.capped_steps,
+            driven.last_overlap,
+            driven.worst_overlap,
+        ),
         run.out,
     );
     Ok(())
@@ -412,7 +416,7 @@ fn print_summary<V: Vector>(
     seconds: f64,
     contacts_total: u64,
     contacts_max: usize,
-    capped_steps: u64,
+    (capped_steps, last_overlap, worst_overlap): (u64, f64, f64),
     out: Option<&Path>,
 ) {
     let name = name.unwrap_or("(unnamed)");
@@ -449,6 +453,11 @@ fn print_summary<V: Vector>(
             } else {
                 String::new()
             }
+        );
+        println!(
+            "overlap     {:.3}% of the smaller radius at the end, {:.3}% at most",
+            last_overlap * 100.0,
+            worst_overlap * 100.0
         );
     }
     let (ke1, pe1) = (world.kinetic_energy(), world.potential_energy());

@@ -254,6 +254,10 @@ pub struct Driven {
     pub contacts_total: u64,
     pub contacts_max: usize,
     pub capped_steps: u64,
+    /// The deepest overlap left by the last step and by any step, as fractions of the smaller
+    /// radius.
+    pub last_overlap: f64,
+    pub worst_overlap: f64,
     /// The step at which an interrupt stopped the run.
     pub interrupted_at: Option<u64>,
 }
@@ -381,6 +385,8 @@ pub fn drive<V: Vector, S: Stepper<V>>(
             driven.contacts_total += stats.contacts as u64;
             driven.contacts_max = driven.contacts_max.max(stats.contacts);
             driven.capped_steps += stats.capped as u64;
+            driven.last_overlap = stats.max_overlap;
+            driven.worst_overlap = driven.worst_overlap.max(stats.max_overlap);
             let step = stepper.steps_taken();
             if step % 64 == 0 {
                 progress.set_position(step);

@@ -3,7 +3,7 @@
 //!
 //! Particles live in *storage slots* (the world keeps them sorted along space, see
 //! [`crate::world`]); contacts are pairs of slots `(i, j)`, `i < j`, sorted, each with a row of
-//! solver data ([`crate::solver::Row`]) at the same index. Slots are cut into blocks of `size`;
+//! solver data (a row) at the same index. Slots are cut into blocks of `size`;
 //! a contact belongs to the block of its `i`. A sweep runs
 //!
 //! 1. the even blocks, each with the slots of itself and the next block (pairwise disjoint, so
@@ -17,9 +17,9 @@
 //! contacts. Running the blocks serially gives the very same bits.
 //!
 //! The same order runs across processes ([`crate::cluster`]): each process holds a run of
-//! whole blocks, and an [`Exchange`] lends it the particles of the next process's first block
+//! whole blocks, and an `Exchange` lends it the particles of the next process's first block
 //! that its border block pair touches, runs the leftovers in their global order and adds up
-//! the counts that decide when a phase stops. Alone in one process, [`Alone`] does none of that.
+//! the counts that decide when a phase stops. Alone in one process, `Alone` does none of that.
 
 use crate::broadphase::Pair;
 use crate::solver::Row;

@@ -75,7 +75,7 @@ pub struct SolverSettings {
     pub velocity_iterations: u32,
     /// Cap on position sweeps (0: no position correction).
     pub position_iterations: u32,
-    /// Substeps per step when contacts can rest (see [`integrate`]), >= 1.
+    /// Substeps per step when contacts can rest (see the module notes), >= 1.
     pub substeps: u32,
 }
 

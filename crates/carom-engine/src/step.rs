@@ -2,7 +2,7 @@
 //! particle velocity update, collision"), as named phases.
 //!
 //! [`crate::World`] and the cluster's [`crate::cluster::Subdomain`] both step through
-//! [`advance`], so a world split over processes takes the very same phases in the very same
+//! `advance`, so a world split over processes takes the very same phases in the very same
 //! order as one world does; only what each phase does with its share of the particles differs.
 //!
 //! The velocities are resolved *before* the particles move (semi-implicit Euler with the

@@ -1,6 +1,6 @@
 //! The world: particles, planes, a broad phase and the time step that ties them together.
 //!
-//! One step (length `dt`, time units) takes the phases of [`crate::step::advance`]:
+//! One step (length `dt`, time units) takes the phases of [`crate::step`]:
 //! 1. gravity: `v += g dt`;
 //! 2. contacts: every pair within reach this step, sorted (see [`crate::broadphase`]), and
 //!    every particle within reach of a plane; the lecture's detection on each;
@@ -61,7 +61,7 @@ pub struct WorldConfig<V> {
     /// Position-correction sweeps per step (0 turns the lecture's "solution 1" off).
     pub position_iterations: u32,
     /// Substeps per step when contacts can rest (gravity and some `k < 1`), >= 1: see
-    /// [`crate::solver::integrate`]. The velocity sweep cap is shared among them.
+    /// [`crate::solver`]. The velocity sweep cap is shared among them.
     pub substeps: u32,
     /// The simulation space; the grid covers it. `None`: the grid fits the particles.
     pub domain: Option<Aabb<V>>,
@@ -648,7 +648,7 @@ impl<V: Vector> World<V> {
         WorldBuilder::default()
     }
 
-    /// Advances the world by one time step (see [`crate::step::advance`]).
+    /// Advances the world by one time step (see [`crate::step`]).
     pub fn step(&mut self) -> StepStats {
         step::advance(self)
     }

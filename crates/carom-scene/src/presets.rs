@@ -51,6 +51,10 @@ pub const PRESETS: &[(&str, &str)] = &[
         "settling_pile",
         include_str!("../../../scenes/settling_pile.toml"),
     ),
+    (
+        "lecture_pile_60hz",
+        include_str!("../../../scenes/lecture_pile_60hz.toml"),
+    ),
     ("box_3d", include_str!("../../../scenes/box_3d.toml")),
 ];
 

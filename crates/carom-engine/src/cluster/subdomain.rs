@@ -21,7 +21,7 @@ use crate::world::{block_size, sort_layout, Snapshot, World, WorldConfig, REORDE
 
 /// One rank's share of a [`World`]: the particles in its slots, stepped together with the
 /// other ranks' shares through a [`Transport`] so that, put together, they take the very steps
-/// the whole world would (both step through [`crate::step::advance`]).
+/// the whole world would (both step through the same phases, see [`crate::step`]).
 ///
 /// Every rank builds the same world (from the same scene), splits it with
 /// [`Subdomain::new`], then calls [`Subdomain::step`] the same number of times; the calls are
