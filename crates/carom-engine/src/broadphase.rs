@@ -76,6 +76,7 @@ pub(crate) fn collect_pairs<F>(
             search(i, out);
         }
         out.sort_unstable();
+        keep_headroom(out);
     };
     if n >= PARALLEL_SEARCH_MIN {
         buffers[..chunks].par_iter_mut().enumerate().for_each(work);
@@ -85,5 +86,15 @@ pub(crate) fn collect_pairs<F>(
     pairs.clear();
     for b in &buffers[..chunks] {
         pairs.extend_from_slice(b);
+    }
+    keep_headroom(pairs);
+}
+
+/// Grows `v`'s capacity to half again its length once it is three quarters full: contact
+/// counts fluctuate from step to step, and a buffer sized to the largest count seen so far
+/// would reallocate at every new maximum, long after warm-up.
+pub(crate) fn keep_headroom<T>(v: &mut Vec<T>) {
+    if v.len() * 4 > v.capacity() * 3 {
+        v.reserve(v.len() / 2);
     }
 }

@@ -19,7 +19,7 @@
 //! are in id order. The sort depends only on the particles' state, never on the broad phase or
 //! the thread count, so neither can change a single bit of the result.
 
-use crate::broadphase::{BroadPhase, BroadPhaseKind, Pair, PARALLEL_MIN};
+use crate::broadphase::{keep_headroom, BroadPhase, BroadPhaseKind, Pair, PARALLEL_MIN};
 use crate::brute::BruteForce;
 use crate::diagnostics::{self, StepStats};
 use crate::domain::Aabb;
@@ -576,6 +576,8 @@ impl<V: Vector> Phases for World<V> {
             )
         });
         self.plane_rows.clear();
+        self.plane_rows.reserve(self.plane_contacts.len());
+        keep_headroom(&mut self.plane_rows);
         let planes = &self.planes;
         self.plane_rows
             .extend(self.plane_contacts.iter().map(|&(i, plane)| {
@@ -678,6 +680,7 @@ impl<V: Vector> World<V> {
                     }
                 }
             }
+            keep_headroom(out);
         };
         if parallel {
             self.plane_buffers[..chunks]
@@ -693,6 +696,7 @@ impl<V: Vector> World<V> {
         for b in &self.plane_buffers[..chunks] {
             self.plane_contacts.extend_from_slice(b);
         }
+        keep_headroom(&mut self.plane_contacts);
     }
 
     /// This step's contacts, for the solver.

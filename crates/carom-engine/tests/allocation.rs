@@ -28,17 +28,17 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// A jittered lattice gas filling a walled box, without gravity so that it reaches a steady
-/// state (contacts come and go every step, but their number does not keep growing, which
-/// would legitimately grow the buffers).
+/// A jittered lattice gas filling a walled box, elastic and without gravity so that it reaches
+/// a steady state (contacts come and go every step, but their number does not keep growing,
+/// which would legitimately grow the buffers; an inelastic gas cools and clusters).
 fn gas<V: Vector>(per_axis: usize, kind: BroadPhaseKind) -> World<V> {
     let spacing = 2.5;
     let half = per_axis as f64 * spacing / 2.0 + 2.0;
     let mut b = World::<V>::builder()
         .dt(0.01)
-        .restitution(0.7)
+        .restitution(1.0)
         .domain(Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap())
-        .walls(0.9)
+        .walls(1.0)
         .broad_phase(kind);
     let mut s = 3u64;
     let mut next = || {
@@ -67,8 +67,18 @@ fn allocations_in_steps<V: Vector>(world: &mut World<V>, steps: u64) -> usize {
         world.step();
     }
     let before = ALLOCATIONS.load(Ordering::Relaxed);
-    for _ in 0..steps {
-        world.step();
+    for s in 0..steps {
+        let b = ALLOCATIONS.load(Ordering::Relaxed);
+        let st = world.step();
+        let a = ALLOCATIONS.load(Ordering::Relaxed);
+        if a != b && std::env::var("ALLOC_DEBUG").is_ok() {
+            eprintln!(
+                "step {s} (taken {}): {} allocations, contacts {}",
+                world.steps_taken(),
+                a - b,
+                st.contacts
+            );
+        }
     }
     ALLOCATIONS.load(Ordering::Relaxed) - before
 }
@@ -106,4 +116,32 @@ fn stepping_does_not_allocate_after_warm_up() {
     let mut w = gas::<DVec3>(12, BroadPhaseKind::Grid);
     let n = allocations_in_steps(&mut w, REORDER_INTERVAL);
     assert_eq!(n, 0, "3D, 1728 particles: {n} allocations");
+}
+
+/// The resting-contact solver (gravity, k < 1: substeps, remembered impulses) allocates nothing
+/// once a pile has settled.
+#[test]
+fn a_settled_pile_does_not_allocate() {
+    let half = 20.0;
+    let mut b = World::<DVec2>::builder()
+        .dt(1.0 / 60.0)
+        .gravity(DVec2::new(0.0, -9.81))
+        .restitution(0.5)
+        .domain(Aabb::new(DVec2::splat(-half), DVec2::splat(half)).unwrap())
+        .walls(0.5);
+    for k in 0..400 {
+        let (i, j) = ((k % 16) as f64, (k / 16) as f64);
+        b = b.particle(
+            DVec2::new(-18.0 + 2.2 * i, -18.0 + 1.5 * j),
+            DVec2::ZERO,
+            0.7,
+            1.0,
+        );
+    }
+    let mut w = b.build().unwrap();
+    for _ in 0..40 * REORDER_INTERVAL {
+        w.step();
+    }
+    let n = allocations_in_steps(&mut w, 2 * REORDER_INTERVAL);
+    assert_eq!(n, 0, "settled pile: {n} allocations");
 }
