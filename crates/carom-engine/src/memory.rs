@@ -67,6 +67,21 @@ impl Memory {
         }
     }
 
+    /// Gives every row of this step's contacts (`pairs`, `plane_contacts`, sorted) the impulse
+    /// remembered for it, if any.
+    pub fn warm_rows<V>(
+        &self,
+        pairs: &[Pair],
+        rows: &mut [crate::solver::Row<V>],
+        plane_contacts: &[Pair],
+        plane_rows: &mut [crate::solver::PlaneRow<V>],
+    ) {
+        Self::recall(&self.pairs, pairs, |k, impulse| rows[k].impulse = impulse);
+        Self::recall(&self.planes, plane_contacts, |k, impulse| {
+            plane_rows[k].impulse = impulse
+        });
+    }
+
     /// Replaces `into` with the contacts of `keys` (sorted) whose impulse (from `impulse(k)`)
     /// is above zero.
     pub fn store(into: &mut Vec<(u32, u32, f64)>, keys: &[Pair], impulse: impl Fn(usize) -> f64) {

@@ -590,14 +590,12 @@ impl<V: Vector> Phases for World<V> {
                     dt,
                 )
             }));
-        let rows = &mut self.rows;
-        Memory::recall(&self.memory.pairs, &self.pairs, |k, impulse| {
-            rows[k].impulse = impulse;
-        });
-        let plane_rows = &mut self.plane_rows;
-        Memory::recall(&self.memory.planes, &self.plane_contacts, |k, impulse| {
-            plane_rows[k].impulse = impulse;
-        });
+        self.memory.warm_rows(
+            &self.pairs,
+            &mut self.rows,
+            &self.plane_contacts,
+            &mut self.plane_rows,
+        );
     }
 
     fn integrate(&mut self) -> VelocitySolve {

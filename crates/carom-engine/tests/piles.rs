@@ -82,10 +82,10 @@ fn settle<V: Vector>(w: &mut World<V>, steps: usize, from: usize) -> (f64, usize
     (worst, capped)
 }
 
-#[test]
-fn poured_discs_come_to_rest_with_small_overlaps() {
-    let mut w = pour::<DVec2>(250, 30.0, 11);
-    let (worst, _) = settle(&mut w, 1500, 300);
+/// Pours `w` for `steps` steps and checks the issue's target 1: at rest, overlaps at the end
+/// under 1 % (max) and 0.2 % (mean) of r, and under 5 % after the first 300 steps.
+fn comes_to_rest<V: Vector>(mut w: World<V>, steps: usize) {
+    let (worst, _) = settle(&mut w, steps, 300);
     let (max, mean) = overlaps(&w);
     assert!(max <= 0.01, "max overlap {max} r");
     assert!(mean <= 0.002, "mean overlap {mean} r");
@@ -94,14 +94,13 @@ fn poured_discs_come_to_rest_with_small_overlaps() {
 }
 
 #[test]
+fn poured_discs_come_to_rest_with_small_overlaps() {
+    comes_to_rest(pour::<DVec2>(250, 30.0, 11), 1500);
+}
+
+#[test]
 fn poured_spheres_come_to_rest_with_small_overlaps() {
-    let mut w = pour::<DVec3>(400, 12.0, 12);
-    let (worst, _) = settle(&mut w, 1200, 300);
-    let (max, mean) = overlaps(&w);
-    assert!(max <= 0.01, "max overlap {max} r");
-    assert!(mean <= 0.002, "mean overlap {mean} r");
-    assert!(worst <= 0.05, "largest overlap after the pour {worst} r");
-    assert!(v_rms(&w) <= 0.01 * G.sqrt(), "v_rms {}", v_rms(&w));
+    comes_to_rest(pour::<DVec3>(400, 12.0, 12), 1200);
 }
 
 /// 100 discs stacked in a channel one diameter (plus 1%) wide hold their height for 60 s: the

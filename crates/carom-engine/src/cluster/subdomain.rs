@@ -643,10 +643,10 @@ impl<V: Vector> Subdomain<V> {
         let parallel = self.partition.slots() >= PARALLEL_MIN;
         let candidates = &self.candidates;
         let search = &self.search;
-        solver::prepare_rows(&mut self.rows, &self.pairs, false, |_| Row::default());
-        for (row, &(_, (ki, kj))) in self.rows.iter_mut().zip(candidates) {
+        self.rows.clear();
+        self.rows.extend(candidates.iter().map(|&(_, (ki, kj))| {
             let (ki, kj) = (ki as usize, kj as usize);
-            *row = Row::new(
+            Row::new(
                 search.position[ki],
                 search.position[kj],
                 search.radius[ki],
@@ -654,8 +654,9 @@ impl<V: Vector> Subdomain<V> {
                 search.mass[ki],
                 search.mass[kj],
                 dt,
-            );
-        }
+            )
+        }));
+        crate::broadphase::keep_headroom(&mut self.rows);
         self.agree_on_borrowing(link);
         self.blocks.plan(
             own + self.halo,
@@ -669,14 +670,12 @@ impl<V: Vector> Subdomain<V> {
             self.place_arrived(link);
             self.rerouting = false;
         }
-        let rows = &mut self.rows;
-        Memory::recall(&self.memory.pairs, &self.pairs, |k, impulse| {
-            rows[k].impulse = impulse;
-        });
-        let plane_rows = &mut self.plane_rows;
-        Memory::recall(&self.memory.planes, &self.plane_contacts, |k, impulse| {
-            plane_rows[k].impulse = impulse;
-        });
+        self.memory.warm_rows(
+            &self.pairs,
+            &mut self.rows,
+            &self.plane_contacts,
+            &mut self.plane_rows,
+        );
         self.leftovers.gather(
             link,
             self.first_slot,
