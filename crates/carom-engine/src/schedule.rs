@@ -20,6 +20,15 @@
 //! whole blocks, and an `Exchange` lends it the particles of the next process's first block
 //! that its border block pair touches, runs the leftovers in their global order and adds up
 //! the counts that decide when a phase stops. Alone in one process, `Alone` does none of that.
+//!
+//! **Work lists.** After the first sweep of a pass, most contacts have nothing left to do: a
+//! sweep only needs the contacts one of whose particles changed since the contact was last
+//! visited. Each particle carries a *stamp*, the number of the last sweep that changed it
+//! ([`Visit`]); a sweep visits a contact when either stamp is at least `since` (the previous
+//! sweep's number). A rule that says it changed nothing ([`Change::Nothing`]) changed nothing,
+//! and a second visit with unchanged particles changes nothing (the rules' dead bands cover
+//! rounding), so skipping a contact gives the very bits visiting it would: the work list changes the cost of a sweep, never its result, and a
+//! process that visits every contact (the cluster's) stays bit-identical to one that does not.
 
 use crate::broadphase::Pair;
 use crate::solver::Row;
@@ -46,10 +55,86 @@ pub(crate) struct Blocks {
     parallel: bool,
 }
 
+/// What one application of a rule did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Change {
+    /// Nothing: not a bit of the row or the particles changed.
+    Nothing,
+    /// Something, too little to keep the sweeps going.
+    Small,
+    /// Enough to keep the sweeps going (counted).
+    Counted,
+}
+
+impl Change {
+    /// 1 when counted.
+    #[inline]
+    fn count(self) -> u64 {
+        (self == Change::Counted) as u64
+    }
+}
+
+impl From<bool> for Change {
+    /// `true`: counted; `false`: nothing.
+    #[inline]
+    fn from(counted: bool) -> Self {
+        if counted {
+            Change::Counted
+        } else {
+            Change::Nothing
+        }
+    }
+}
+
 /// A rule applied to one pair: its row and the two particles' values (velocities or
-/// positions); says whether it changed anything that should keep the sweeps going.
-pub(crate) trait PairRule<V>: Fn(&mut Row<V>, &mut V, &mut V) -> bool + Sync {}
-impl<V, F: Fn(&mut Row<V>, &mut V, &mut V) -> bool + Sync> PairRule<V> for F {}
+/// positions); says what it changed. Used with a work list ([`Visit`]), a rule that returns
+/// [`Change::Nothing`] must have changed nothing.
+pub(crate) trait PairRule<V>: Fn(&mut Row<V>, &mut V, &mut V) -> Change + Sync {}
+impl<V, F: Fn(&mut Row<V>, &mut V, &mut V) -> Change + Sync> PairRule<V> for F {}
+
+/// The same for a particle against a plane.
+pub(crate) trait PlaneRule<V, R>: Fn(&mut R, &mut V) -> Change + Sync {}
+impl<V, R, F: Fn(&mut R, &mut V) -> Change + Sync> PlaneRule<V, R> for F {}
+
+/// Which contacts a sweep visits, and what it stamps (see the module notes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Visit {
+    /// Visit the contacts with a particle stamped at least this (0: every contact).
+    pub since: u32,
+    /// Stamp the particles a rule changed with this (0: stamp nothing).
+    pub now: u32,
+}
+
+impl Visit {
+    /// Every contact, stamping nothing.
+    pub const ALL: Visit = Visit { since: 0, now: 0 };
+
+    /// Whether the contact of particles `i` and `j` is visited; `stamps` empty means no work
+    /// list (every contact is).
+    #[inline]
+    fn wants(self, stamps: &[u32], i: usize, j: usize) -> bool {
+        stamps.is_empty() || stamps[i].max(stamps[j]) >= self.since
+    }
+
+    /// Records that the rule changed particles `i` and `j`.
+    #[inline]
+    fn stamp(self, stamps: &mut [u32], i: usize, j: usize) {
+        if self.now != 0 && !stamps.is_empty() {
+            stamps[i] = self.now;
+            stamps[j] = self.now;
+        }
+    }
+}
+
+/// `stamps` split at `at` (an empty slice, the "no work list" case, splits into two empties).
+#[inline]
+fn split_stamps(stamps: &mut [u32], at: usize) -> (&mut [u32], &mut [u32]) {
+    if stamps.is_empty() {
+        (Default::default(), Default::default())
+    } else {
+        stamps.split_at_mut(at)
+    }
+}
 
 impl Blocks {
     /// Splits this step's contacts; `pairs` and `plane_contacts` must be sorted. Slot 0 here
@@ -89,6 +174,11 @@ impl Blocks {
         }
     }
 
+    /// Whether the blocks run on the thread pool.
+    pub fn parallel(&self) -> bool {
+        self.parallel
+    }
+
     fn count(&self) -> usize {
         self.pair_start.len() - 1
     }
@@ -97,10 +187,13 @@ impl Blocks {
     /// set in parallel), then the leftovers one after another. Returns how many applications
     /// of `rule` changed something, as (this process's blocks, all leftovers). `reverse` walks
     /// each block's pairs backwards (the leftovers always go forwards).
+    #[allow(clippy::too_many_arguments)]
     pub fn sweep_pairs<V: Vector, E: Exchange<V>>(
         &self,
         exchange: &mut E,
         data: &mut [V],
+        stamps: &mut [u32],
+        visit: Visit,
         pairs: &[Pair],
         rows: &mut [Row<V>],
         reverse: bool,
@@ -109,17 +202,41 @@ impl Blocks {
         let mut changed = 0;
         for parity in 0..2 {
             exchange.before_blocks(parity, data);
-            changed += self.run_parity(data, pairs, rows, parity, reverse, rule);
+            changed += self.run_parity(data, stamps, visit, pairs, rows, parity, reverse, rule);
             exchange.after_blocks(parity, data);
         }
-        let leftovers = exchange.leftovers(self, data, pairs, rows, rule);
+        let leftovers = exchange.leftovers(self, data, stamps, visit, pairs, rows, rule);
         (changed, leftovers)
     }
 
+    /// [`Blocks::sweep_pairs`] over every pair, forwards, without a work list.
+    pub fn every_pair<V: Vector, E: Exchange<V>>(
+        &self,
+        exchange: &mut E,
+        data: &mut [V],
+        pairs: &[Pair],
+        rows: &mut [Row<V>],
+        rule: &impl PairRule<V>,
+    ) -> (u64, u64) {
+        self.sweep_pairs(
+            exchange,
+            data,
+            &mut [],
+            Visit::ALL,
+            pairs,
+            rows,
+            false,
+            rule,
+        )
+    }
+
     /// The blocks of one global parity, each with the slots of itself and the next block.
+    #[allow(clippy::too_many_arguments)]
     fn run_parity<V: Vector>(
         &self,
         data: &mut [V],
+        stamps: &mut [u32],
+        visit: Visit,
         pairs: &[Pair],
         rows: &mut [Row<V>],
         global_parity: usize,
@@ -140,6 +257,7 @@ impl Blocks {
         let work = |c: usize,
                     slot_base: usize,
                     slots: &mut [V],
+                    stamps: &mut [u32],
                     row_base: usize,
                     span_rows: &mut [Row<V>]| {
             let block = parity + 2 * c;
@@ -148,11 +266,15 @@ impl Blocks {
             let mut changed = 0;
             let mut one = |k: usize| {
                 let (i, j) = pairs[k];
-                let (i, j) = (i as usize, j as usize);
-                if j < limit {
-                    // (the others are leftovers)
-                    let (a, b) = pair_mut(slots, i - slot_base, j - slot_base);
-                    changed += rule(&mut span_rows[k - row_base], a, b) as u64;
+                let (i, j) = (i as usize - slot_base, j as usize - slot_base);
+                // (pairs reaching beyond the span are leftovers)
+                if j < limit - slot_base && visit.wants(stamps, i, j) {
+                    let (a, b) = pair_mut(slots, i, j);
+                    let change = rule(&mut span_rows[k - row_base], a, b);
+                    if change != Change::Nothing {
+                        visit.stamp(stamps, i, j);
+                        changed += change.count();
+                    }
                 }
             };
             if reverse {
@@ -169,18 +291,23 @@ impl Blocks {
             &slot,
             &row,
             &mut data[s0..],
+            split_stamps(stamps, s0).1,
             &mut rows[r0..row(spans)],
             &work,
         )
     }
 
-    /// Runs `work(slot_base, slots, plane_rows)` on every block with its own slots and its
-    /// plane contacts' rows, and adds up what they return.
+    /// Applies `rule` to every plane contact (`plane_contacts[k]` with row `plane_rows[k]`)
+    /// that `visit` wants, block by block, and returns how many applications changed
+    /// something.
     pub fn run_planes<V: Send, R: Send>(
         &self,
         data: &mut [V],
+        stamps: &mut [u32],
+        visit: Visit,
+        plane_contacts: &[PlaneContact],
         plane_rows: &mut [R],
-        work: &(impl Fn(usize, &mut [V], usize, &mut [R]) -> u64 + Sync),
+        rule: &impl PlaneRule<V, R>,
     ) -> u64 {
         let size = self.size;
         let count = self.count();
@@ -188,44 +315,83 @@ impl Blocks {
         let slot = |b: usize| (b * size).min(n);
         let row = |b: usize| self.plane_start[b.min(count)];
         let all = row(count);
+        let work = |_: usize,
+                    slot_base: usize,
+                    slots: &mut [V],
+                    stamps: &mut [u32],
+                    row_base: usize,
+                    rows: &mut [R]| {
+            let mut changed = 0;
+            for (k, r) in rows.iter_mut().enumerate() {
+                let i = plane_contacts[row_base + k].0 as usize - slot_base;
+                if visit.wants(stamps, i, i) {
+                    let change = rule(r, &mut slots[i]);
+                    if change != Change::Nothing {
+                        visit.stamp(stamps, i, i);
+                        changed += change.count();
+                    }
+                }
+            }
+            changed
+        };
         split_run(
             self.parallel,
             0..count,
             &slot,
             &row,
             data,
+            stamps,
             &mut plane_rows[..all],
-            &|_, slot_base, slots, row_base, rows| work(slot_base, slots, row_base, rows),
+            &work,
         )
+    }
+
+    /// [`Blocks::run_planes`] over every plane contact, without a work list.
+    pub fn every_plane<V: Send, R: Send>(
+        &self,
+        data: &mut [V],
+        plane_contacts: &[PlaneContact],
+        plane_rows: &mut [R],
+        rule: &impl PlaneRule<V, R>,
+    ) -> u64 {
+        self.run_planes(data, &mut [], Visit::ALL, plane_contacts, plane_rows, rule)
     }
 }
 
-/// Runs `work(c, slot_base, slots, row_base, rows)` for every span `c` in `spans`, where span
-/// `c` owns `data[slot(c)..slot(c + 1)]` and `rows[row(c)..row(c + 1)]` (both boundaries
-/// ascending; `data` and `rows` start at span `spans.start`'s boundaries), splitting in halves
-/// on the thread pool when `parallel`. The spans are disjoint, so the result does not depend
-/// on how they are scheduled.
+/// Runs `work(c, slot_base, slots, stamps, row_base, rows)` for every span `c` in `spans`,
+/// where span `c` owns `data[slot(c)..slot(c + 1)]` (and the same stamps, unless there are
+/// none) and `rows[row(c)..row(c + 1)]` (both boundaries ascending; `data`, `stamps` and `rows`
+/// start at span `spans.start`'s boundaries), splitting in halves on the thread pool when
+/// `parallel`. The spans are disjoint, so the result does not depend on how they are scheduled.
+#[allow(clippy::too_many_arguments)]
 fn split_run<T: Send, R: Send>(
     parallel: bool,
     spans: std::ops::Range<usize>,
     slot: &(impl Fn(usize) -> usize + Sync),
     row: &(impl Fn(usize) -> usize + Sync),
     data: &mut [T],
+    stamps: &mut [u32],
     rows: &mut [R],
-    work: &(impl Fn(usize, usize, &mut [T], usize, &mut [R]) -> u64 + Sync),
+    work: &(impl Fn(usize, usize, &mut [T], &mut [u32], usize, &mut [R]) -> u64 + Sync),
 ) -> u64 {
-    let (s0, r0) = (slot(spans.start), row(spans.start));
     if !parallel || spans.len() <= 1 {
         let mut total = 0;
+        let (mut data, mut stamps, mut rows) = (data, stamps, rows);
         for c in spans {
-            let (s, r) = (slot(c) - s0, row(c) - r0);
-            let (s1, r1) = (slot(c + 1) - s0, row(c + 1) - r0);
-            total += work(c, s + s0, &mut data[s..s1], r + r0, &mut rows[r..r1]);
+            let (s, r) = (slot(c), row(c));
+            let (len, count) = (slot(c + 1) - s, row(c + 1) - r);
+            let (here, rest) = std::mem::take(&mut data).split_at_mut(len);
+            let (here_stamps, rest_stamps) = split_stamps(std::mem::take(&mut stamps), len);
+            let (here_rows, rest_rows) = std::mem::take(&mut rows).split_at_mut(count);
+            total += work(c, s, here, here_stamps, r, here_rows);
+            (data, stamps, rows) = (rest, rest_stamps, rest_rows);
         }
         return total;
     }
+    let (s0, r0) = (slot(spans.start), row(spans.start));
     let mid = spans.start + spans.len() / 2;
     let (left_data, right_data) = data.split_at_mut(slot(mid) - s0);
+    let (left_stamps, right_stamps) = split_stamps(stamps, slot(mid) - s0);
     let (left_rows, right_rows) = rows.split_at_mut(row(mid) - r0);
     let (a, b) = rayon::join(
         || {
@@ -235,6 +401,7 @@ fn split_run<T: Send, R: Send>(
                 slot,
                 row,
                 left_data,
+                left_stamps,
                 left_rows,
                 work,
             )
@@ -246,6 +413,7 @@ fn split_run<T: Send, R: Send>(
                 slot,
                 row,
                 right_data,
+                right_stamps,
                 right_rows,
                 work,
             )
@@ -269,11 +437,15 @@ pub(crate) trait Exchange<V: Vector> {
     /// After the blocks of global parity `parity` ran on `data`.
     fn after_blocks(&mut self, parity: usize, data: &mut [V]);
     /// Runs every leftover pair (of every process) in global order and returns how many
-    /// changed anything: the same number on every process.
+    /// changed anything: the same number on every process. May visit pairs `visit` does not
+    /// want (the result is the same), and stamps as `visit` says.
+    #[allow(clippy::too_many_arguments)]
     fn leftovers(
         &mut self,
         blocks: &Blocks,
         data: &mut [V],
+        stamps: &mut [u32],
+        visit: Visit,
         pairs: &[Pair],
         rows: &mut [Row<V>],
         rule: &impl PairRule<V>,
@@ -302,6 +474,8 @@ impl<V: Vector> Exchange<V> for Alone {
         &mut self,
         blocks: &Blocks,
         data: &mut [V],
+        stamps: &mut [u32],
+        visit: Visit,
         pairs: &[Pair],
         rows: &mut [Row<V>],
         rule: &impl PairRule<V>,
@@ -309,8 +483,16 @@ impl<V: Vector> Exchange<V> for Alone {
         let mut changed = 0;
         for &k in &blocks.leftovers {
             let (i, j) = pairs[k as usize];
-            let (a, b) = pair_mut(data, i as usize, j as usize);
-            changed += rule(&mut rows[k as usize], a, b) as u64;
+            let (i, j) = (i as usize, j as usize);
+            if !visit.wants(stamps, i, j) {
+                continue;
+            }
+            let (a, b) = pair_mut(data, i, j);
+            let change = rule(&mut rows[k as usize], a, b);
+            if change != Change::Nothing {
+                visit.stamp(stamps, i, j);
+                changed += change.count();
+            }
         }
         changed
     }

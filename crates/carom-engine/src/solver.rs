@@ -31,7 +31,7 @@
 use crate::broadphase::Pair;
 use crate::plane::Plane;
 use crate::response::{collide, contact_normal, is_overlapping, split_normal_tangent};
-use crate::schedule::{Blocks, Exchange, PlaneContact};
+use crate::schedule::{Blocks, Change, Exchange, PlaneContact, Visit};
 use crate::vector::Vector;
 use rayon::prelude::*;
 
@@ -62,8 +62,19 @@ pub(crate) fn reach(radius: f64, speed: f64, dt: f64) -> f64 {
     radius + SLOP_FRACTION * radius + (speed * dt).min(radius)
 }
 
+/// The position sweeps stop when no overlap beyond the slop is deeper than this fraction of
+/// the smaller radius.
+const POSITION_TOLERANCE: f64 = 1e-6;
+
+/// Relative rounding a dead band always covers: a change smaller than this fraction of the
+/// values it is made to is rounding, not a change.
+const DEAD_BAND_ROUNDING: f64 = 1e-12;
+
 /// Rows per parallel task when preparing contacts.
 const ROW_CHUNK: usize = 4096;
+
+/// Particles per parallel task when applying gravity and moving.
+const PARTICLE_CHUNK: usize = 8192;
 
 /// The solver's settings for one step (from [`crate::WorldConfig`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -281,7 +292,24 @@ fn approaching(vn: f64, speed_squared: f64) -> bool {
     vn < 0.0 && vn * vn > APPROACH_TOLERANCE * APPROACH_TOLERANCE * speed_squared
 }
 
-/// The two passes of the velocity phase when contacts can rest (see [`respond`]).
+/// A change that keeps the sweeps going when `keep_going`, else a small one.
+#[inline]
+fn counted(keep_going: bool) -> Change {
+    if keep_going {
+        Change::Counted
+    } else {
+        Change::Small
+    }
+}
+
+/// True when `change` is within the rounding of values whose squares sum to `squares` (the
+/// floor of every dead band).
+#[inline]
+fn rounding(change: f64, squares: f64) -> bool {
+    change * change <= DEAD_BAND_ROUNDING * DEAD_BAND_ROUNDING * squares
+}
+
+/// The two passes of the velocity phase when contacts can rest (see [`integrate`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Pass {
     /// Every contact aims at not approaching (a gap may close, no more).
@@ -322,20 +350,29 @@ fn accumulate_pair<V: Vector>(
     vj: &mut V,
     pass: Pass,
     tolerance: f64,
-) -> bool {
+) -> Change {
     let vn = row.normal.dot(*vi - *vj);
     let goal = goal(pass, row.bounce, row.met, row.allowance);
     let target = (row.impulse - (vn - goal) * row.effective_mass).max(0.0);
-    row.met |= target > 0.0;
+    // (meeting changes an impact's goal in the restitution pass: that is a change too)
+    let newly_met = !row.met && target > 0.0;
+    row.met |= newly_met;
     let change = target - row.impulse;
-    if change == 0.0 {
-        return false;
+    let [wi, wj] = row.inverse_mass;
+    // The dead band: a change within rounding of the speeds is not made, so a second visit
+    // with unchanged velocities changes nothing (the work lists rely on it).
+    let dv = change * (wi + wj);
+    if rounding(dv, vi.length_squared() + vj.length_squared()) {
+        return if newly_met {
+            Change::Counted
+        } else {
+            Change::Nothing
+        };
     }
     row.impulse = target;
-    let [wi, wj] = row.inverse_mass;
     *vi += row.normal * (change * wi);
     *vj -= row.normal * (change * wj);
-    (change * (wi + wj)).abs() > tolerance
+    counted(dv.abs() > tolerance || newly_met)
 }
 
 /// The lecture's plane rule: if the particle touches the plane and heads into it,
@@ -358,18 +395,24 @@ fn accumulate_plane<V: Vector>(
     v: &mut V,
     pass: Pass,
     tolerance: f64,
-) -> bool {
+) -> Change {
     let vn = row.normal.dot(*v);
     let goal = goal(pass, row.bounce, row.met, row.allowance);
     let target = (row.impulse - (vn - goal)).max(0.0);
-    row.met |= target > 0.0;
+    let newly_met = !row.met && target > 0.0;
+    row.met |= newly_met;
     let change = target - row.impulse;
-    if change == 0.0 {
-        return false;
+    // (the dead band of `accumulate_pair`)
+    if rounding(change, v.length_squared()) {
+        return if newly_met {
+            Change::Counted
+        } else {
+            Change::Nothing
+        };
     }
     row.impulse = target;
     *v += row.normal * change;
-    change.abs() > tolerance
+    counted(change.abs() > tolerance || newly_met)
 }
 
 /// This step's contacts, planned into blocks, with their rows.
@@ -380,6 +423,37 @@ pub(crate) struct Contacts<'a, V> {
     pub plane_rows: &'a mut [PlaneRow<V>],
     pub planes: &'a [Plane<V>],
     pub blocks: &'a Blocks,
+    pub work: WorkList<'a>,
+}
+
+/// The per-particle stamps of the work lists (see [`crate::schedule`]) and the sweep clock
+/// that numbers them. Without stamps (an empty slice) every sweep visits every contact, with
+/// the same result.
+pub(crate) struct WorkList<'a> {
+    /// One per slot of the data the sweeps run on, or none.
+    pub stamps: &'a mut [u32],
+    /// The number of the last sweep (kept between steps; stamps below the current pass's
+    /// first sweep mean nothing).
+    pub clock: &'a mut u32,
+}
+
+impl WorkList<'_> {
+    /// The visit of a new sweep: every contact on a pass's first sweep (`previous` = None),
+    /// afterwards the contacts with a particle changed since `previous` began.
+    fn next(&mut self, previous: Option<Visit>) -> Visit {
+        if self.stamps.is_empty() {
+            return Visit::ALL;
+        }
+        if previous.is_none() && *self.clock > u32::MAX / 2 {
+            self.stamps.fill(0);
+            *self.clock = 0;
+        }
+        *self.clock += 1;
+        Visit {
+            since: previous.map_or(0, |p| p.now),
+            now: *self.clock,
+        }
+    }
 }
 
 /// The particles a step moves: `position` and `velocity` cover the slots the blocks cover, of
@@ -423,10 +497,8 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         velocity,
         own,
     } = m;
-    let blocks = c.blocks;
     let k = settings.restitution;
     let resting = settings.resting_speed;
-    let tolerance = RESIDUAL_FRACTION * resting;
     let elastic_planes = c.planes.iter().all(|p| p.restitution() >= 1.0);
     let substeps = if settings.lecture_only(elastic_planes) {
         1
@@ -434,9 +506,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         settings.substeps.max(1)
     };
     let h = dt / substeps as f64;
-    let cap = (settings.velocity_iterations / substeps).max(1);
     let lecture_pairs = k >= 1.0 || resting <= 0.0;
-    let lecture_planes = |row: &PlaneRow<V>| row.restitution >= 1.0 || resting <= 0.0;
     let impacts = classify(
         exchange,
         settings,
@@ -446,13 +516,14 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         gravity,
         dt,
     );
+    let parallel = c.blocks.parallel();
     let mut solve = VelocitySolve::default();
     for pass in (0..substeps)
         .map(|_| Pass::Relax)
         .chain([Pass::Restitution])
     {
         if pass == Pass::Restitution {
-            exchange.settle_rows(blocks, c.rows);
+            exchange.settle_rows(c.blocks, c.rows);
             for row in c.rows.iter_mut() {
                 row.kept = row.impulse;
             }
@@ -464,80 +535,119 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
                 break;
             }
         } else {
-            let dv = gravity * h;
-            velocity[..own].iter_mut().for_each(|v| *v += dv);
+            for_each_particle(parallel, &mut velocity[..own], None, |v, _| {
+                *v += gravity * h
+            });
             if !lecture_pairs || !elastic_planes {
                 warm_start(exchange, velocity, c);
             }
         }
-        let pair_rule = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
-            if lecture_pairs {
-                lecture_pair(row, vi, vj, k)
-            } else {
-                accumulate_pair(row, vi, vj, pass, tolerance)
-            }
-        };
-        let plane_rule = |base: usize, v: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
-            let mut changed = 0;
-            for (n, row) in rows.iter_mut().enumerate() {
-                let v = &mut v[c.plane_contacts[row_base + n].0 as usize - base];
-                changed += if lecture_planes(row) {
-                    lecture_plane(row, v)
-                } else {
-                    accumulate_plane(row, v, pass, tolerance)
-                } as u64;
-            }
-            changed
-        };
         // (the restitution pass, once a step, may take the whole cap: an impact on a pile must
         // travel through it for the pile to hold)
-        let cap = if pass == Pass::Restitution {
-            settings.velocity_iterations.max(1)
-        } else {
-            cap
+        let cap = match pass {
+            Pass::Restitution => settings.velocity_iterations.max(1),
+            Pass::Relax => (settings.velocity_iterations / substeps).max(1),
         };
-        let mut sweeps = 0;
-        loop {
-            if sweeps == cap {
-                solve.capped = true;
-                break;
-            }
-            sweeps += 1;
-            // Planes first: a floor's support then travels up a stack within one sweep.
-            let on_planes = blocks.run_planes(velocity, c.plane_rows, &plane_rule);
-            // Alternate the direction within each block (symmetric Gauss-Seidel): support
-            // then spreads both ways through a stack instead of one layer per sweep.
-            let reverse = sweeps % 2 == 0;
-            let (in_blocks, leftovers) =
-                blocks.sweep_pairs(exchange, velocity, c.pairs, c.rows, reverse, &pair_rule);
-            let changed = exchange.total(on_planes + in_blocks) + leftovers;
-            solve.responses += changed;
-            if changed == 0 {
-                break;
-            }
-            // A pile is hyperstatic: its impulses can keep shifting between contacts (every
-            // update "changes something") while its velocities no longer do. So now and then
-            // (after sweeps 1, 2, 4, 8, ...) the sweeps also stop when no contact misses its
-            // goal by more than the tolerance.
-            if !lecture_pairs
-                && sweeps.is_power_of_two()
-                && unsettled(exchange, velocity, c, pass, tolerance) == 0
-            {
-                break;
-            }
-        }
+        let (sweeps, capped) = relax(exchange, settings, velocity, c, pass, cap, &mut solve);
         solve.iterations += sweeps;
+        solve.capped |= capped;
         if pass == Pass::Relax {
-            for (x, v) in position[..own].iter_mut().zip(&velocity[..own]) {
-                *x += *v * h;
-            }
+            let (x, v) = (&mut position[..own], &velocity[..own]);
+            for_each_particle(parallel, x, Some(v), |x, v| *x += *v.unwrap() * h);
             if substeps > 1 {
                 place(exchange, position, c, h);
             }
         }
     }
-    exchange.settle_rows(blocks, c.rows);
+    exchange.settle_rows(c.blocks, c.rows);
     solve
+}
+
+/// Runs `f(a[i], b[i])` for every particle, on the thread pool when `parallel` (in fixed chunks:
+/// each particle's update is its own, so the result is the same either way).
+fn for_each_particle<V: Vector>(
+    parallel: bool,
+    a: &mut [V],
+    b: Option<&[V]>,
+    f: impl Fn(&mut V, Option<&V>) + Sync,
+) {
+    let chunk = |(n, a): (usize, &mut [V])| {
+        let b = b.map(|b| &b[n * PARTICLE_CHUNK..]);
+        for (i, x) in a.iter_mut().enumerate() {
+            f(x, b.map(|b| &b[i]));
+        }
+    };
+    if parallel {
+        a.par_chunks_mut(PARTICLE_CHUNK).enumerate().for_each(chunk);
+    } else {
+        a.chunks_mut(PARTICLE_CHUNK).enumerate().for_each(chunk);
+    }
+}
+
+/// One pass's sweeps (see [`integrate`]) until one changes nothing or `cap` is hit; returns the
+/// sweeps made and whether the cap was hit. After the first sweep, each sweep visits only the
+/// contacts whose particles the sweeps before it changed (the work list).
+fn relax<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    settings: &SolverSettings,
+    velocity: &mut [V],
+    c: &mut Contacts<V>,
+    pass: Pass,
+    cap: u32,
+    solve: &mut VelocitySolve,
+) -> (u32, bool) {
+    let k = settings.restitution;
+    let resting = settings.resting_speed;
+    let tolerance = RESIDUAL_FRACTION * resting;
+    let lecture_pairs = k >= 1.0 || resting <= 0.0;
+    let pair_rule = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+        if lecture_pairs {
+            lecture_pair(row, vi, vj, k).into()
+        } else {
+            accumulate_pair(row, vi, vj, pass, tolerance)
+        }
+    };
+    let plane_rule = |row: &mut PlaneRow<V>, v: &mut V| {
+        if row.restitution >= 1.0 || resting <= 0.0 {
+            lecture_plane(row, v).into()
+        } else {
+            accumulate_plane(row, v, pass, tolerance)
+        }
+    };
+    let blocks = c.blocks;
+    let mut visit = None;
+    for sweeps in 1..=cap {
+        let this = c.work.next(visit);
+        visit = Some(this);
+        // Planes first: a floor's support then travels up a stack within one sweep.
+        let on_planes = blocks.run_planes(
+            velocity,
+            c.work.stamps,
+            this,
+            c.plane_contacts,
+            c.plane_rows,
+            &plane_rule,
+        );
+        // Alternate the direction within each block (symmetric Gauss-Seidel): support then
+        // spreads both ways through a stack instead of one layer per sweep.
+        let reverse = sweeps % 2 == 0;
+        let (in_blocks, leftovers) = blocks.sweep_pairs(
+            exchange,
+            velocity,
+            c.work.stamps,
+            this,
+            c.pairs,
+            c.rows,
+            reverse,
+            &pair_rule,
+        );
+        let changed = exchange.total(on_planes + in_blocks) + leftovers;
+        solve.responses += changed;
+        if changed == 0 {
+            return (sweeps, false);
+        }
+    }
+    (cap, true)
 }
 
 /// Brings every contact's normal, detection and allowance up to date with the positions.
@@ -549,67 +659,20 @@ fn place<V: Vector, E: Exchange<V>>(
 ) {
     let pairs = |row: &mut Row<V>, xi: &mut V, xj: &mut V| {
         row.place(*xi, *xj, h);
-        false
+        Change::Nothing
     };
-    let planes = |base: usize, x: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
-        for (n, row) in rows.iter_mut().enumerate() {
-            let i = c.plane_contacts[row_base + n].0 as usize - base;
-            row.place(&c.planes[row.plane as usize], x[i], h);
-        }
-        0
+    let planes = c.planes;
+    let on_planes = |row: &mut PlaneRow<V>, x: &mut V| {
+        row.place(&planes[row.plane as usize], *x, h);
+        Change::Nothing
     };
-    c.blocks.run_planes(position, c.plane_rows, &planes);
     c.blocks
-        .sweep_pairs(exchange, position, c.pairs, c.rows, false, &pairs);
+        .every_plane(position, c.plane_contacts, c.plane_rows, &on_planes);
+    c.blocks
+        .every_pair(exchange, position, c.pairs, c.rows, &pairs);
 }
 
-/// How far a pair's relative normal velocity `vn` is from satisfying its goal with impulse
-/// `impulse` (complementarity: an active contact meets its goal, an idle one does not fall
-/// short of it).
-#[inline]
-fn miss(vn: f64, goal: f64, impulse: f64) -> f64 {
-    if impulse > 0.0 {
-        (vn - goal).abs()
-    } else {
-        (goal - vn).max(0.0)
-    }
-}
-
-/// How many contacts miss their goal by more than `tolerance` (read only).
-fn unsettled<V: Vector, E: Exchange<V>>(
-    exchange: &mut E,
-    velocity: &mut [V],
-    c: &mut Contacts<V>,
-    pass: Pass,
-    tolerance: f64,
-) -> u64 {
-    let goal = |bounce: f64, met: bool, allowance: f64| goal(pass, bounce, met, allowance);
-    let pairs = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
-        let vn = row.normal.dot(*vi - *vj);
-        miss(vn, goal(row.bounce, row.met, row.allowance), row.impulse) > tolerance
-    };
-    let planes = |base: usize, v: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
-        let mut missed = 0;
-        for (n, row) in rows.iter().enumerate() {
-            if row.restitution >= 1.0 {
-                continue;
-            }
-            let vn = row
-                .normal
-                .dot(v[c.plane_contacts[row_base + n].0 as usize - base]);
-            missed += (miss(vn, goal(row.bounce, row.met, row.allowance), row.impulse) > tolerance)
-                as u64;
-        }
-        missed
-    };
-    let on_planes = c.blocks.run_planes(velocity, c.plane_rows, &planes);
-    let (in_blocks, leftovers) = c
-        .blocks
-        .sweep_pairs(exchange, velocity, c.pairs, c.rows, false, &pairs);
-    exchange.total(on_planes + in_blocks) + leftovers
-}
-
-/// Marks this step's impacts (see [`respond`]) from the velocities before any impulse, and
+/// Marks this step's impacts (see [`integrate`]) from the velocities before any impulse, and
 /// returns how many this process found.
 fn classify<V: Vector, E: Exchange<V>>(
     exchange: &mut E,
@@ -635,24 +698,21 @@ fn classify<V: Vector, E: Exchange<V>>(
         let fast = speed >= resting && row.impulse == 0.0;
         row.bounce = if fast { k * speed } else { 0.0 };
         row.allowance *= substeps;
-        row.bounce > 0.0
+        (row.bounce > 0.0).into()
     };
-    let planes = |base: usize, v: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
-        let mut found = 0;
-        for (n, row) in rows.iter_mut().enumerate() {
-            let v = v[c.plane_contacts[row_base + n].0 as usize - base] + gravity * dt;
-            let speed = -row.normal.dot(v);
-            let fast = speed >= resting && row.impulse == 0.0;
-            row.bounce = if fast { row.restitution * speed } else { 0.0 };
-            row.allowance *= substeps;
-            found += (row.bounce > 0.0) as u64;
-        }
-        found
+    let planes = |row: &mut PlaneRow<V>, v: &mut V| {
+        let speed = -row.normal.dot(*v + gravity * dt);
+        let fast = speed >= resting && row.impulse == 0.0;
+        row.bounce = if fast { row.restitution * speed } else { 0.0 };
+        row.allowance *= substeps;
+        (row.bounce > 0.0).into()
     };
-    let on_planes = c.blocks.run_planes(velocity, c.plane_rows, &planes);
+    let on_planes = c
+        .blocks
+        .every_plane(velocity, c.plane_contacts, c.plane_rows, &planes);
     let (in_blocks, leftovers) = c
         .blocks
-        .sweep_pairs(exchange, velocity, c.pairs, c.rows, false, &pairs);
+        .every_pair(exchange, velocity, c.pairs, c.rows, &pairs);
     // (every process counts the leftovers: only whether there are any matters)
     on_planes + in_blocks + leftovers
 }
@@ -668,36 +728,34 @@ fn warm_start<V: Vector, E: Exchange<V>>(
             *vi += row.normal * (row.impulse * row.inverse_mass[0]);
             *vj -= row.normal * (row.impulse * row.inverse_mass[1]);
         }
-        false
+        Change::Nothing
     };
-    let on_planes = |base: usize, v: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
-        for (k, row) in rows.iter().enumerate() {
-            if row.impulse > 0.0 {
-                let i = c.plane_contacts[row_base + k].0 as usize;
-                v[i - base] += row.normal * row.impulse;
-            }
+    let on_planes = |row: &mut PlaneRow<V>, v: &mut V| {
+        if row.impulse > 0.0 {
+            *v += row.normal * row.impulse;
         }
-        0
+        Change::Nothing
     };
-    c.blocks.run_planes(velocity, c.plane_rows, &on_planes);
     c.blocks
-        .sweep_pairs(exchange, velocity, c.pairs, c.rows, false, &push);
+        .every_plane(velocity, c.plane_contacts, c.plane_rows, &on_planes);
+    c.blocks
+        .every_pair(exchange, velocity, c.pairs, c.rows, &push);
 }
 
 /// Moves one overlapping pair apart down to the slop; returns whether it moved them.
 #[inline]
-fn separate_pair<V: Vector>(row: &Row<V>, xi: &mut V, xj: &mut V) -> bool {
+fn separate_pair<V: Vector>(row: &Row<V>, xi: &mut V, xj: &mut V) -> Change {
     let (normal, distance) = contact_normal(*xi, *xj);
     let overlap = row.reach() - distance - SLOP_FRACTION * row.min_radius();
-    if overlap <= 0.0 {
-        return false;
+    if overlap <= 0.0 || rounding(overlap, xi.length_squared() + xj.length_squared()) {
+        return Change::Nothing;
     }
     // Inverse-mass shares: the lighter particle moves further.
     let [wi, wj] = row.inverse_mass;
     let share = overlap / (wi + wj);
     *xi += normal * (share * wi);
     *xj -= normal * (share * wj);
-    true
+    counted(overlap > POSITION_TOLERANCE * row.min_radius())
 }
 
 /// Position phase: sweeps over the pairs and plane contacts (in the same order as the velocity
@@ -711,20 +769,38 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
 ) -> f64 {
     let (blocks, planes) = (c.blocks, c.planes);
     let push_apart = |row: &mut Row<V>, xi: &mut V, xj: &mut V| separate_pair(row, xi, xj);
-    let out_of_planes = |base: usize, x: &mut [V], row_base: usize, rows: &mut [PlaneRow<V>]| {
-        let mut moved = 0;
-        for (k, row) in rows.iter().enumerate() {
-            let i = c.plane_contacts[row_base + k].0 as usize - base;
-            let before = x[i];
-            x[i] = planes[row.plane as usize].push_out(before, row.radius);
-            moved += (x[i] != before) as u64;
+    let out_of_plane = |row: &mut PlaneRow<V>, x: &mut V| {
+        let plane = &planes[row.plane as usize];
+        let depth = row.radius - plane.signed_distance(*x);
+        // (the dead band of `separate_pair`)
+        if depth <= 0.0 || rounding(depth, x.length_squared()) {
+            return Change::Nothing;
         }
-        moved
+        *x = plane.push_out(*x, row.radius);
+        counted(depth > POSITION_TOLERANCE * row.radius)
     };
+    let mut visit = None;
     for _ in 0..settings.position_iterations {
-        let (in_blocks, leftovers) =
-            blocks.sweep_pairs(exchange, position, c.pairs, c.rows, false, &push_apart);
-        let on_planes = blocks.run_planes(position, c.plane_rows, &out_of_planes);
+        let this = c.work.next(visit);
+        visit = Some(this);
+        let (in_blocks, leftovers) = blocks.sweep_pairs(
+            exchange,
+            position,
+            c.work.stamps,
+            this,
+            c.pairs,
+            c.rows,
+            false,
+            &push_apart,
+        );
+        let on_planes = blocks.run_planes(
+            position,
+            c.work.stamps,
+            this,
+            c.plane_contacts,
+            c.plane_rows,
+            &out_of_plane,
+        );
         if exchange.total(in_blocks + on_planes) + leftovers == 0 {
             break;
         }
@@ -743,9 +819,9 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
         }
         let (_, distance) = contact_normal(*xi, *xj);
         row.overlap = ((row.reach() - distance) / row.min_radius()).max(0.0);
-        false
+        Change::Nothing
     };
-    blocks.sweep_pairs(exchange, position, c.pairs, c.rows, false, &finish);
+    blocks.every_pair(exchange, position, c.pairs, c.rows, &finish);
     exchange.settle_rows(blocks, c.rows);
     let local = c.rows.iter().map(|r| r.overlap).fold(0.0, f64::max);
     exchange.largest(local)

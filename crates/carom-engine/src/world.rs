@@ -30,7 +30,9 @@ use crate::memory::{self, ContactImpulses, Memory};
 use crate::particles::Particles;
 use crate::plane::{check_restitution, Plane};
 use crate::schedule::{Alone, Blocks, PlaneContact};
-use crate::solver::{self, Contacts, Moving, PlaneRow, Row, SolverSettings, VelocitySolve};
+use crate::solver::{
+    self, Contacts, Moving, PlaneRow, Row, SolverSettings, VelocitySolve, WorkList,
+};
 use crate::step::{self, Phases};
 use crate::vector::Vector;
 use rayon::prelude::*;
@@ -305,6 +307,8 @@ impl<V: Vector> WorldBuilder<V> {
             memory: remembered,
             unsorted_ids: Vec::new(),
             blocks: Blocks::default(),
+            stamps: Vec::new(),
+            clock: 0,
             block_size: block_size(n, V::DIM),
             sorter: Sorter::default(),
             steps,
@@ -383,6 +387,9 @@ pub struct World<V: Vector> {
     /// Ids by slot before a sort (scratch).
     unsorted_ids: Vec<u32>,
     blocks: Blocks,
+    /// The work lists' stamps, one per slot, and their sweep clock (see [`crate::schedule`]).
+    stamps: Vec<u32>,
+    clock: u32,
     pub(crate) block_size: usize,
     sorter: Sorter,
     steps: u64,
@@ -699,6 +706,7 @@ impl<V: Vector> World<V> {
 
     /// This step's contacts, for the solver.
     fn contacts_mut(&mut self) -> (Contacts<'_, V>, &mut Particles<V>) {
+        self.stamps.resize(self.store.len(), 0);
         (
             Contacts {
                 pairs: &self.pairs,
@@ -707,6 +715,10 @@ impl<V: Vector> World<V> {
                 plane_rows: &mut self.plane_rows,
                 planes: &self.planes,
                 blocks: &self.blocks,
+                work: WorkList {
+                    stamps: &mut self.stamps,
+                    clock: &mut self.clock,
+                },
             },
             &mut self.store,
         )

@@ -28,6 +28,10 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+/// The counter is global, so the tests here take turns: one test's set-up would otherwise count
+/// as another's step allocations.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// A jittered lattice gas filling a walled box, elastic and without gravity so that it reaches
 /// a steady state (contacts come and go every step, but their number does not keep growing,
 /// which would legitimately grow the buffers; an inelastic gas cools and clusters).
@@ -62,6 +66,7 @@ fn gas<V: Vector>(per_axis: usize, kind: BroadPhaseKind) -> World<V> {
 }
 
 fn allocations_in_steps<V: Vector>(world: &mut World<V>, steps: u64) -> usize {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     // warm up over several re-sorts so every buffer has reached its working size
     for _ in 0..8 * REORDER_INTERVAL {
         world.step();

@@ -7,7 +7,7 @@ use super::traffic::{Link, TrafficKind};
 use super::transport::Transport;
 use super::wire::{Reader, Writer};
 use crate::broadphase::Pair;
-use crate::schedule::{pair_mut, Blocks, Exchange, PairRule};
+use crate::schedule::{pair_mut, Blocks, Change, Exchange, PairRule, Visit};
 use crate::solver::Row;
 use crate::vector::Vector;
 
@@ -216,6 +216,8 @@ impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
         &mut self,
         _blocks: &Blocks,
         data: &mut [V],
+        _stamps: &mut [u32],
+        _visit: Visit,
         _pairs: &[Pair],
         _rows: &mut [Row<V>],
         rule: &impl PairRule<V>,
@@ -238,7 +240,7 @@ impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
         let mut changed = 0;
         for (&(a, b), row) in l.pairs.iter().zip(l.rows.iter_mut()) {
             let (va, vb) = pair_mut(&mut values, a as usize, b as usize);
-            changed += rule(row, va, vb) as u64;
+            changed += (rule(row, va, vb) == Change::Counted) as u64;
         }
         for k in l.own.clone() {
             data[l.slots[k] as usize - self.first_slot] = values[k];

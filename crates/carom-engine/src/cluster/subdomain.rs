@@ -14,7 +14,7 @@ use crate::memory::{ContactImpulses, Memory};
 use crate::particles::Particles;
 use crate::plane::Plane;
 use crate::schedule::{Blocks, PlaneContact};
-use crate::solver::{self, Contacts, Moving, PlaneRow, Row, VelocitySolve};
+use crate::solver::{self, Contacts, Moving, PlaneRow, Row, VelocitySolve, WorkList};
 use crate::step::{self, Phases};
 use crate::vector::Vector;
 use crate::world::{block_size, sort_layout, Snapshot, World, WorldConfig, REORDER_INTERVAL};
@@ -81,6 +81,8 @@ pub struct Subdomain<V: Vector> {
     rerouting: bool,
     leftovers: Leftovers<V>,
     blocks: Blocks,
+    /// The sweep clock of the work lists (unused: a subdomain sweeps every contact).
+    clock: u32,
     steps: u64,
     traffic: Traffic,
 }
@@ -222,6 +224,7 @@ impl<V: Vector> Subdomain<V> {
             rerouting: false,
             leftovers: Leftovers::default(),
             blocks: Blocks::default(),
+            clock: 0,
             steps: world.steps_taken(),
             traffic: Traffic::default(),
             partition,
@@ -774,6 +777,11 @@ impl<V: Vector, T: Transport + ?Sized> Stepping<'_, '_, '_, V, T> {
             plane_rows: &mut s.plane_rows,
             planes: &s.planes,
             blocks: &s.blocks,
+            // (no work lists across processes: they would change the cost, not the result)
+            work: WorkList {
+                stamps: &mut [],
+                clock: &mut s.clock,
+            },
         };
         phase(&mut exchange, &mut s.window, &mut contacts)
     }
