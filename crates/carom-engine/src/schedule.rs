@@ -24,8 +24,8 @@
 //! **Work lists.** After the first sweep of a pass, most contacts have nothing left to do: a
 //! sweep only needs the contacts one of whose particles changed since the contact was last
 //! visited. Each particle carries a *stamp*, the number of the last sweep that changed it
-//! ([`Visit`]); a sweep visits a contact when either stamp is at least `since` (the previous
-//! sweep's number). A rule that says it changed nothing ([`Change::Nothing`]) changed nothing,
+//! (`Visit`); a sweep visits a contact when either stamp is at least `since` (the previous
+//! sweep's number). A rule that says it changed nothing (`Change::Nothing`) changed nothing,
 //! and a second visit with unchanged particles changes nothing (the rules' dead bands cover
 //! rounding), so skipping a contact gives the very bits visiting it would: the work list changes the cost of a sweep, never its result, and a
 //! process that visits every contact (the cluster's) stays bit-identical to one that does not.
