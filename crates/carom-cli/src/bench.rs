@@ -1,4 +1,5 @@
-//! `carom bench`: the lecture's timing table and a scale sweep, measured on this machine.
+//! `carom bench`: the lecture's timing table, a scale sweep and piles at dt = 1/60, measured on
+//! this machine.
 //!
 //! Every case runs in a child process of its own (`carom bench --case JSON`), so that its peak
 //! resident memory is its own and one case's caches and allocations cannot help another.
@@ -45,12 +46,15 @@ pub struct BenchArgs {
 /// Parts of the benchmark.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Part {
-    /// The lecture's table and the sweep.
+    /// The lecture's table, the sweep and the piles.
     All,
     /// The lecture's table only.
     Lecture,
     /// The scale sweep only.
     Sweep,
+    /// Piles at dt = 1/60 (k = 0.5): the lecture pile falling and settled, a 3D pour, 10^6
+    /// discs falling.
+    Piles,
 }
 
 /// One benchmark case, as handed to the child process.
@@ -77,6 +81,12 @@ struct Measured {
     ms_per_step: f64,
     ns_per_particle_step: f64,
     contacts_per_step: f64,
+    /// Timed steps that hit the velocity sweeps' cap.
+    capped_steps: u64,
+    /// Largest overlap at the end of the last step, as a fraction of the smaller radius.
+    end_max_overlap: f64,
+    /// sqrt(2 KE / total mass) at the end.
+    end_v_rms: f64,
     bytes_per_particle: f64,
     peak_rss_bytes: u64,
     setup_seconds: f64,
@@ -169,9 +179,80 @@ fn sweep_toml(dim: usize, n: u64) -> String {
     )
 }
 
+/// A pile scene at dt = 1/60, k = 0.5, g = 9.81 (the issue's targets): `count` particles of
+/// `radius` poured into a walled box from `min` to `max`, filled at random over the box.
+fn pile_toml(dim: usize, count: u64, radius: f64, min: &[f64], max: &[f64]) -> String {
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:.1}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let g = if dim == 2 {
+        "[0.0, -9.81]"
+    } else {
+        "[0.0, -9.81, 0.0]"
+    };
+    format!(
+        "dimensions = {dim}\ndt = 0.016666666666666666\ngravity = {g}\nrestitution = 0.5\n\
+         [domain]\nmin = [{}]\nmax = [{}]\nwalls = true\n\
+         [[fill]]\ncount = {count}\nradius = {radius}\nspeed = 7.0\nseed = {count}\n",
+        list(min),
+        list(max)
+    )
+}
+
+/// The pile cases: each scene timed while falling and (where it settles within the bench)
+/// once settled.
+fn pile_cases(args: &BenchArgs) -> Vec<Case> {
+    let threads = args.threads;
+    let case = |name: &str, toml: String, warmup: u64, steps: u64| Case {
+        group: "piles".into(),
+        name: name.into(),
+        toml,
+        warmup,
+        steps,
+        threads,
+    };
+    let lecture = pile_toml(2, 5000, 1.0, &[-100.0; 2], &[100.0; 2]);
+    if args.quick {
+        return vec![case("2D lecture pile, falling", lecture, 10, 20)];
+    }
+    // 100,000 spheres poured into an 80 x 240 x 80 box; they have settled by step 1500
+    let pour = pile_toml(
+        3,
+        100_000,
+        1.0,
+        &[-40.0, -40.0, -40.0],
+        &[40.0, 200.0, 40.0],
+    );
+    // 10^6 discs r = 0.5 at area fraction 0.3 (they need ~1100 steps to reach the floor)
+    let million = pile_toml(2, 1_000_000, 0.5, &[-809.0; 2], &[809.0; 2]);
+    vec![
+        case(
+            "2D lecture pile, falling (steps 10-300)",
+            lecture.clone(),
+            10,
+            290,
+        ),
+        case(
+            "2D lecture pile, settled (steps 1500-1800)",
+            lecture,
+            1500,
+            300,
+        ),
+        case("3D pour 10^5, falling (steps 10-60)", pour.clone(), 10, 50),
+        case("3D pour 10^5, settled (steps 1500-1600)", pour, 1500, 100),
+        case("2D 10^6 discs, falling (steps 10-40)", million, 10, 30),
+    ]
+}
+
 fn cases(args: &BenchArgs) -> Vec<Case> {
     let mut out = Vec::new();
     let threads = args.threads;
+    if args.only == Part::Piles {
+        return pile_cases(args);
+    }
     if args.only != Part::Sweep {
         // The same steps for every broad phase, so each times the same physics (the
         // gas settles as it runs, and a pile has more contacts than a gas).
@@ -241,6 +322,9 @@ fn cases(args: &BenchArgs) -> Vec<Case> {
         }
     }
     out.extend(single_thread);
+    if args.only == Part::All {
+        out.extend(pile_cases(args));
+    }
     out
 }
 
@@ -375,6 +459,16 @@ fn print_table(report: &Report) {
             r.contacts_per_step,
             r.bytes_per_particle
         );
+        if r.group == "piles" {
+            println!(
+                "{:<44} capped {}/{} steps, end: max overlap {:.3}% r, v_rms {:.4}",
+                "",
+                r.capped_steps,
+                r.steps,
+                100.0 * r.end_max_overlap,
+                r.end_v_rms
+            );
+        }
     }
     // The lecture's comparison: grid against brute force in this run.
     for radii in ["r = 1,", "r = 1 and 3,"] {
@@ -450,7 +544,7 @@ fn measure<V: Vector>(
         .into_world()
         .map_err(|e| Failure::input(e.to_string()))?;
     let n = world.len();
-    let mut contacts = 0u64;
+    let (mut contacts, mut capped, mut end_max_overlap) = (0u64, 0u64, 0.0);
     // On a pool thread, as `carom run` steps (see run.rs).
     let (setup_seconds, seconds) = rayon::scope(|_| {
         for _ in 0..case.warmup {
@@ -459,10 +553,15 @@ fn measure<V: Vector>(
         let setup_seconds = started.elapsed().as_secs_f64();
         let t = Instant::now();
         for _ in 0..case.steps {
-            contacts += world.step().contacts as u64;
+            let stats = world.step();
+            contacts += stats.contacts as u64;
+            capped += stats.capped as u64;
+            end_max_overlap = stats.max_overlap;
         }
         (setup_seconds, t.elapsed().as_secs_f64())
     });
+    let mass: f64 = world.particles().masses().iter().sum();
+    let end_v_rms = (2.0 * world.kinetic_energy() / mass.max(f64::MIN_POSITIVE)).sqrt();
     let steps = case.steps.max(1) as f64;
     let peak = peak_rss_bytes();
     Ok(Measured {
@@ -476,6 +575,9 @@ fn measure<V: Vector>(
         ms_per_step: seconds * 1e3 / steps,
         ns_per_particle_step: seconds * 1e9 / steps / n.max(1) as f64,
         contacts_per_step: contacts as f64 / steps,
+        capped_steps: capped,
+        end_max_overlap,
+        end_v_rms,
         bytes_per_particle: peak as f64 / n.max(1) as f64,
         peak_rss_bytes: peak,
         setup_seconds,

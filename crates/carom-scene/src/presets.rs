@@ -55,6 +55,14 @@ pub const PRESETS: &[(&str, &str)] = &[
         "lecture_pile_60hz",
         include_str!("../../../scenes/lecture_pile_60hz.toml"),
     ),
+    (
+        "pyramid_60hz",
+        include_str!("../../../scenes/pyramid_60hz.toml"),
+    ),
+    (
+        "hex_box_60hz",
+        include_str!("../../../scenes/hex_box_60hz.toml"),
+    ),
     ("box_3d", include_str!("../../../scenes/box_3d.toml")),
 ];
 
