@@ -22,9 +22,9 @@
 //!
 //! **Position phase** (the lecture's "solution 1", which it calls hard with many contacts):
 //! after the particles move, overlapping particles are moved apart along their normal, each by
-//! its share of inverse mass, down to a small slop, and pushed out of planes. Positions only:
-//! velocities are never touched, so this can never add kinetic energy. Planes go last so a
-//! walled box holds its particles.
+//! its share of inverse mass, down to touching (or a small slop), and pushed out of planes.
+//! Positions only: velocities are never touched, so this can never add kinetic energy. Planes
+//! go last so a walled box holds its particles.
 //!
 //! The order of every rule application is fixed by [`crate::schedule`].
 
@@ -35,9 +35,11 @@ use crate::schedule::{Blocks, Change, Exchange, PlaneContact, Visit};
 use crate::vector::Vector;
 use rayon::prelude::*;
 
-/// The position phase leaves overlapping pairs this fraction of the smaller radius deep, so a
-/// resting contact is still detected (`distance < r1 + r2`) on the next step instead of
-/// dropping out of the contact list. (Box2D's "linear slop" plays the same role.)
+/// With the lecture's rule alone, the position phase leaves overlapping pairs this fraction of
+/// the smaller radius deep, so a contact is still detected (`distance < r1 + r2`) on the next
+/// step instead of dropping out. When contacts can rest, pairs within this fraction of
+/// touching are contacts that may not close in (see `Row::place`), and the position phase
+/// moves pairs apart to touching. (Box2D's "linear slop" plays the same role.)
 pub const SLOP_FRACTION: f64 = 1e-3;
 
 /// Approaches slower than this fraction of the particles' speeds are rounding residue, not
@@ -742,11 +744,11 @@ fn warm_start<V: Vector, E: Exchange<V>>(
         .every_pair(exchange, velocity, c.pairs, c.rows, &push);
 }
 
-/// Moves one overlapping pair apart down to the slop; returns whether it moved them.
+/// Moves one overlapping pair apart down to `depth` times the smaller radius.
 #[inline]
-fn separate_pair<V: Vector>(row: &Row<V>, xi: &mut V, xj: &mut V) -> Change {
+fn separate_pair<V: Vector>(row: &Row<V>, xi: &mut V, xj: &mut V, depth: f64) -> Change {
     let (normal, distance) = contact_normal(*xi, *xj);
-    let overlap = row.reach() - distance - SLOP_FRACTION * row.min_radius();
+    let overlap = row.reach() - distance - depth * row.min_radius();
     if overlap <= 0.0 || rounding(overlap, xi.length_squared() + xj.length_squared()) {
         return Change::Nothing;
     }
@@ -768,7 +770,17 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
     c: &mut Contacts<V>,
 ) -> f64 {
     let (blocks, planes) = (c.blocks, c.planes);
-    let push_apart = |row: &mut Row<V>, xi: &mut V, xj: &mut V| separate_pair(row, xi, xj);
+    // With the lecture's rule alone, a contact is one while the pair overlaps, so the pairs are
+    // left the slop deep; resting contacts stay in the solver within the slop of touching (see
+    // `Row::place`), so they are moved apart to touching: a stack then does not sink by the
+    // slop at each of its contacts.
+    let elastic_planes = planes.iter().all(|p| p.restitution() >= 1.0);
+    let depth = if settings.lecture_only(elastic_planes) {
+        SLOP_FRACTION
+    } else {
+        0.0
+    };
+    let push_apart = |row: &mut Row<V>, xi: &mut V, xj: &mut V| separate_pair(row, xi, xj, depth);
     let out_of_plane = |row: &mut PlaneRow<V>, x: &mut V| {
         let plane = &planes[row.plane as usize];
         let depth = row.radius - plane.signed_distance(*x);
