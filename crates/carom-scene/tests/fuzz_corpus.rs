@@ -151,7 +151,25 @@ fn mutate(rng: &mut Lcg, base: &[u8]) -> Vec<u8> {
     s
 }
 
-/// Shipped scenes, with big fills cut to at most 60 particles so that mutants get stepped.
+/// `text` with at most `keep` `[[particles]]` tables (the rest dropped).
+fn keep_particles(text: &str, keep: usize) -> Vec<String> {
+    let (mut seen, mut dropping) = (0, false);
+    let mut out = Vec::new();
+    for line in text.lines() {
+        let header = line.trim_start();
+        if header.starts_with('[') {
+            seen += (header == "[[particles]]") as usize;
+            dropping = header == "[[particles]]" && seen > keep;
+        }
+        if !dropping {
+            out.push(line.to_string());
+        }
+    }
+    out
+}
+
+/// Shipped scenes, with big fills and long particle lists cut to at most 60 particles so that
+/// mutants get stepped.
 fn seeds() -> Vec<(String, Vec<u8>)> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
     let mut out: Vec<(String, Vec<u8>)> = std::fs::read_dir(&dir)
@@ -160,13 +178,13 @@ fn seeds() -> Vec<(String, Vec<u8>)> {
         .filter(|p| p.extension().is_some_and(|e| e == "toml"))
         .map(|p| {
             let text = std::fs::read_to_string(&p).unwrap();
-            let small: Vec<String> = text
-                .lines()
+            let small: Vec<String> = keep_particles(&text, 60)
+                .into_iter()
                 .map(|l| match l.trim_start().strip_prefix("count = ") {
                     Some(n) if n.trim().parse::<u64>().is_ok_and(|n| n > 60) => {
                         "count = 60".to_string()
                     }
-                    _ => l.to_string(),
+                    _ => l,
                 })
                 .collect();
             (p.display().to_string(), small.join("\n").into_bytes())
