@@ -72,6 +72,16 @@ impl Change {
     fn count(self) -> u64 {
         (self == Change::Counted) as u64
     }
+
+    /// A change that was made: counted when `keep_going`, else small.
+    #[inline]
+    pub fn counted_if(keep_going: bool) -> Self {
+        if keep_going {
+            Change::Counted
+        } else {
+            Change::Small
+        }
+    }
 }
 
 impl From<bool> for Change {

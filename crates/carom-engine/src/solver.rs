@@ -99,6 +99,11 @@ impl SolverSettings {
     fn lecture_only(&self, planes_elastic: bool) -> bool {
         self.resting_speed <= 0.0 || (self.restitution >= 1.0 && planes_elastic)
     }
+
+    /// True when every pair takes the lecture's response (`k = 1`, or nothing to rest against).
+    fn lecture_pairs(&self) -> bool {
+        self.restitution >= 1.0 || self.resting_speed <= 0.0
+    }
 }
 
 /// What the velocity phase did.
@@ -294,16 +299,6 @@ fn approaching(vn: f64, speed_squared: f64) -> bool {
     vn < 0.0 && vn * vn > APPROACH_TOLERANCE * APPROACH_TOLERANCE * speed_squared
 }
 
-/// A change that keeps the sweeps going when `keep_going`, else a small one.
-#[inline]
-fn counted(keep_going: bool) -> Change {
-    if keep_going {
-        Change::Counted
-    } else {
-        Change::Small
-    }
-}
-
 /// True when `change` is within the rounding of values whose squares sum to `squares` (the
 /// floor of every dead band).
 #[inline]
@@ -374,7 +369,7 @@ fn accumulate_pair<V: Vector>(
     row.impulse = target;
     *vi += row.normal * (change * wi);
     *vj -= row.normal * (change * wj);
-    counted(dv.abs() > tolerance || newly_met)
+    Change::counted_if(dv.abs() > tolerance || newly_met)
 }
 
 /// The lecture's plane rule: if the particle touches the plane and heads into it,
@@ -414,7 +409,7 @@ fn accumulate_plane<V: Vector>(
     }
     row.impulse = target;
     *v += row.normal * change;
-    counted(change.abs() > tolerance || newly_met)
+    Change::counted_if(change.abs() > tolerance || newly_met)
 }
 
 /// This step's contacts, planned into blocks, with their rows.
@@ -499,8 +494,6 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         velocity,
         own,
     } = m;
-    let k = settings.restitution;
-    let resting = settings.resting_speed;
     let elastic_planes = c.planes.iter().all(|p| p.restitution() >= 1.0);
     let substeps = if settings.lecture_only(elastic_planes) {
         1
@@ -508,7 +501,6 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         settings.substeps.max(1)
     };
     let h = dt / substeps as f64;
-    let lecture_pairs = k >= 1.0 || resting <= 0.0;
     let impacts = classify(
         exchange,
         settings,
@@ -537,10 +529,8 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
                 break;
             }
         } else {
-            for_each_particle(parallel, &mut velocity[..own], None, |v, _| {
-                *v += gravity * h
-            });
-            if !lecture_pairs || !elastic_planes {
+            accelerate(parallel, &mut velocity[..own], gravity * h);
+            if !settings.lecture_pairs() || !elastic_planes {
                 warm_start(exchange, velocity, c);
             }
         }
@@ -554,8 +544,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         solve.iterations += sweeps;
         solve.capped |= capped;
         if pass == Pass::Relax {
-            let (x, v) = (&mut position[..own], &velocity[..own]);
-            for_each_particle(parallel, x, Some(v), |x, v| *x += *v.unwrap() * h);
+            advance_positions(parallel, &mut position[..own], &velocity[..own], h);
             if substeps > 1 {
                 place(exchange, position, c, h);
             }
@@ -565,24 +554,32 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     solve
 }
 
-/// Runs `f(a[i], b[i])` for every particle, on the thread pool when `parallel` (in fixed chunks:
-/// each particle's update is its own, so the result is the same either way).
-fn for_each_particle<V: Vector>(
-    parallel: bool,
-    a: &mut [V],
-    b: Option<&[V]>,
-    f: impl Fn(&mut V, Option<&V>) + Sync,
-) {
-    let chunk = |(n, a): (usize, &mut [V])| {
-        let b = b.map(|b| &b[n * PARTICLE_CHUNK..]);
-        for (i, x) in a.iter_mut().enumerate() {
-            f(x, b.map(|b| &b[i]));
+/// `v += dv` for every particle, on the thread pool when `parallel` (each particle's update is
+/// its own, so the result is the same either way).
+fn accelerate<V: Vector>(parallel: bool, velocity: &mut [V], dv: V) {
+    if parallel {
+        velocity
+            .par_chunks_mut(PARTICLE_CHUNK)
+            .for_each(|c| c.iter_mut().for_each(|v| *v += dv));
+    } else {
+        velocity.iter_mut().for_each(|v| *v += dv);
+    }
+}
+
+/// `x += v h` for every particle (see [`accelerate`]).
+fn advance_positions<V: Vector>(parallel: bool, position: &mut [V], velocity: &[V], h: f64) {
+    let chunk = |(x, v): (&mut [V], &[V])| {
+        for (x, v) in x.iter_mut().zip(v) {
+            *x += *v * h;
         }
     };
     if parallel {
-        a.par_chunks_mut(PARTICLE_CHUNK).enumerate().for_each(chunk);
+        position
+            .par_chunks_mut(PARTICLE_CHUNK)
+            .zip(velocity.par_chunks(PARTICLE_CHUNK))
+            .for_each(chunk);
     } else {
-        a.chunks_mut(PARTICLE_CHUNK).enumerate().for_each(chunk);
+        chunk((position, velocity));
     }
 }
 
@@ -601,7 +598,7 @@ fn relax<V: Vector, E: Exchange<V>>(
     let k = settings.restitution;
     let resting = settings.resting_speed;
     let tolerance = RESIDUAL_FRACTION * resting;
-    let lecture_pairs = k >= 1.0 || resting <= 0.0;
+    let lecture_pairs = settings.lecture_pairs();
     let pair_rule = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
         if lecture_pairs {
             lecture_pair(row, vi, vj, k).into()
@@ -757,7 +754,7 @@ fn separate_pair<V: Vector>(row: &Row<V>, xi: &mut V, xj: &mut V, depth: f64) ->
     let share = overlap / (wi + wj);
     *xi += normal * (share * wi);
     *xj -= normal * (share * wj);
-    counted(overlap > POSITION_TOLERANCE * row.min_radius())
+    Change::counted_if(overlap > POSITION_TOLERANCE * row.min_radius())
 }
 
 /// Position phase: sweeps over the pairs and plane contacts (in the same order as the velocity
@@ -789,7 +786,7 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
             return Change::Nothing;
         }
         *x = plane.push_out(*x, row.radius);
-        counted(depth > POSITION_TOLERANCE * row.radius)
+        Change::counted_if(depth > POSITION_TOLERANCE * row.radius)
     };
     let mut visit = None;
     for _ in 0..settings.position_iterations {
