@@ -385,40 +385,27 @@ pub fn finish<V: Vector>(
         crate::session::write_whole(out, |w| carom_output::write_state_csv(world.particles(), w))
             .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", out.display())))?;
     }
-    print_summary(
-        run.name,
-        driven.steps_run,
-        run.origin,
-        world,
-        (before.kinetic, before.potential),
-        before.momentum,
-        driven.seconds,
-        driven.contacts_total,
-        driven.contacts_max,
-        (
-            driven.capped_steps,
-            driven.last_overlap,
-            driven.worst_overlap,
-        ),
-        run.out,
-    );
+    print_summary(run.name, run.origin, world, &before, driven, run.out);
     Ok(())
 }
 
-#[allow(clippy::too_many_arguments)]
 fn print_summary<V: Vector>(
     name: Option<&str>,
-    steps: u64,
     origin: &str,
     world: &World<V>,
-    (ke0, pe0): (f64, f64),
-    p0: V,
-    seconds: f64,
-    contacts_total: u64,
-    contacts_max: usize,
-    (capped_steps, last_overlap, worst_overlap): (u64, f64, f64),
+    before: &Before<V>,
+    driven: &crate::session::Driven,
     out: Option<&Path>,
 ) {
+    let steps = driven.steps_run;
+    let (ke0, pe0, p0) = (before.kinetic, before.potential, before.momentum);
+    let (seconds, contacts_total, contacts_max) =
+        (driven.seconds, driven.contacts_total, driven.contacts_max);
+    let (capped_steps, last_overlap, worst_overlap) = (
+        driven.capped_steps,
+        driven.last_overlap,
+        driven.worst_overlap,
+    );
     let name = name.unwrap_or("(unnamed)");
     println!("scene       {name} [{origin}]");
     let broad = match world.grid_cells() {
@@ -448,12 +435,25 @@ fn print_summary<V: Vector>(
         println!(
             "contacts    {:.2} per step on average, {contacts_max} at most{}",
             contacts_total as f64 / steps as f64,
-            if capped_steps > 0 {
-                format!(", iteration cap reached in {capped_steps} steps")
-            } else {
-                String::new()
+            match driven.last_capped {
+                Some(last) if capped_steps > 0 => format!(
+                    ", iteration cap reached in {capped_steps} steps (the last at step {last})"
+                ),
+                _ => String::new(),
             }
         );
+        if world.config().sleep_settings(world.planes()).is_some() {
+            let n = world.len();
+            match driven.asleep_since {
+                Some(since) if driven.asleep_last == n => {
+                    println!("sleep       all {n} particles asleep since step {since}")
+                }
+                _ => println!(
+                    "sleep       {} of {n} particles asleep at the end",
+                    driven.asleep_last
+                ),
+            }
+        }
         println!(
             "overlap     {:.3}% of the smaller radius at the end, {:.3}% at most",
             last_overlap * 100.0,

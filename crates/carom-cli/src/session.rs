@@ -258,6 +258,11 @@ pub struct Driven {
     /// radius.
     pub last_overlap: f64,
     pub worst_overlap: f64,
+    /// The last step that hit the velocity sweep cap.
+    pub last_capped: Option<u64>,
+    /// Particles asleep in the last step, and the step since which that many have been.
+    pub asleep_last: usize,
+    pub asleep_since: Option<u64>,
     /// The step at which an interrupt stopped the run.
     pub interrupted_at: Option<u64>,
 }
@@ -346,9 +351,11 @@ pub fn save_checkpoint<V: Vector>(
         masses: Vec::with_capacity(n),
         pair_impulses: Vec::new(),
         plane_impulses: Vec::new(),
+        rest: Vec::new(),
     };
     let impulses = world.contact_impulses();
-    (cp.pair_impulses, cp.plane_impulses) = (impulses.pairs, impulses.planes);
+    (cp.pair_impulses, cp.plane_impulses, cp.rest) =
+        (impulses.pairs, impulses.planes, impulses.rest);
     for id in 0..n {
         let (x, v, r, m) = world.particle(id);
         cp.positions.extend((0..V::DIM).map(|a| x.get(a)));
@@ -388,6 +395,13 @@ pub fn drive<V: Vector, S: Stepper<V>>(
             driven.last_overlap = stats.max_overlap;
             driven.worst_overlap = driven.worst_overlap.max(stats.max_overlap);
             let step = stepper.steps_taken();
+            if stats.capped {
+                driven.last_capped = Some(step);
+            }
+            if stats.asleep != driven.asleep_last || driven.asleep_since.is_none() {
+                driven.asleep_since = (stats.asleep > 0).then_some(step);
+            }
+            driven.asleep_last = stats.asleep;
             if step % 64 == 0 {
                 progress.set_position(step);
             }
@@ -540,6 +554,7 @@ fn resume_scene<V: Vector>(
                 ContactImpulses {
                     pairs: cp.pair_impulses.clone(),
                     planes: cp.plane_impulses.clone(),
+                    rest: cp.rest.clone(),
                 },
             )
             .map_err(|e| Failure::input(format!("{shown}: {e}")))

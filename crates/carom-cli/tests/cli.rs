@@ -348,6 +348,31 @@ fn bad_scenes_are_rejected_with_file_and_field() {
         ("count = 10", "count = 5000", "fill[0].count"), // cannot hold them
         ("dimensions = 2", "dimensions = 4", "dimensions"),
         ("steps = 10", "steps = -3", "steps"),
+        (
+            "walls = true",
+            "walls = true\n[solver]\nsleep = 1",
+            "sleep = 1", // the TOML reader quotes the line
+        ),
+        (
+            "walls = true",
+            "walls = true\n[solver]\nsleep = true\nsleep_speed = 0.0",
+            "solver.sleep_speed",
+        ),
+        (
+            "walls = true",
+            "walls = true\n[solver]\nsleep = true\nsleep_time = -1.0",
+            "solver.sleep_time",
+        ),
+        (
+            "walls = true",
+            "walls = true\n[solver]\nsleep = true\nsleep_time = nan",
+            "solver.sleep_time",
+        ),
+        (
+            "walls = true",
+            "walls = true\n[solver]\nslep = true",
+            "slep",
+        ),
     ];
     for (from, to, field) in cases {
         assert!(GOOD.contains(from), "{from}");

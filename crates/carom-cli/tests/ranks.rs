@@ -121,3 +121,27 @@ fn zero_ranks_is_refused() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("--ranks"));
 }
+
+/// Sleeping islands are not split across ranks yet: a split run of a scene that sleeps is
+/// refused before any work, naming the key, rather than giving other bits than one process.
+#[test]
+fn a_split_run_of_a_sleeping_scene_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_file = dir.path().join("out.csv");
+    let out = run_guarded(Command::new(env!("CARGO_BIN_EXE_carom")).args([
+        "run",
+        "--preset",
+        "lecture_pile_60hz",
+        "--steps",
+        "1",
+        "--ranks",
+        "2",
+        "--out",
+        out_file.to_str().unwrap(),
+    ]));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("sleep"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!out_file.exists(), "no output file");
+}

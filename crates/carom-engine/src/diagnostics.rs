@@ -49,6 +49,9 @@ pub struct StepStats {
     /// smaller radius, `(r_i + r_j - |x_i - x_j|) / min(r_i, r_j)`, over this step's contact
     /// candidates (every pair within reach of each other this step); 0 when nothing overlaps.
     pub max_overlap: f64,
+    /// Particles asleep through this step (see [`crate::sleep`]); their contacts are not in
+    /// `contacts`.
+    pub asleep: usize,
 }
 
 #[cfg(test)]

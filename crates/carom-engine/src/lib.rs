@@ -14,6 +14,7 @@
 //! | the grid without a box: an unbounded spatial hash (Teschner et al. 2003) | [`hash`] |
 //! | many simultaneous contacts: impacts, resting impulses, pushing trapped particles apart | [`solver`] |
 //! | resting impulses remembered between steps (warm starting) | [`memory`] |
+//! | islands at rest fall asleep | [`sleep`] |
 //! | the fixed order of contacts on threads and processes | [`schedule`] |
 //! | one step, as the lecture's `ParticleSystem_Movement()` | [`step`] |
 //! | the particle system stepped in time under gravity | [`world`] |
@@ -49,6 +50,7 @@ pub mod particles;
 pub mod plane;
 pub mod response;
 pub mod schedule;
+pub mod sleep;
 pub mod solver;
 pub mod step;
 pub mod vector;
@@ -62,6 +64,7 @@ pub use glam;
 pub use memory::ContactImpulses;
 pub use particles::Particles;
 pub use plane::Plane;
+pub use sleep::SleepSettings;
 pub use solver::SolverSettings;
 pub use vector::Vector;
 pub use world::{Snapshot, World, WorldBuilder, WorldConfig};

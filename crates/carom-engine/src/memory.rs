@@ -27,12 +27,15 @@ pub struct ContactImpulses {
     /// `(particle, plane index, impulse per unit mass)` for particles on planes, sorted;
     /// value > 0 (length / time).
     pub planes: Vec<(u32, u32, f64)>,
+    /// How long (time units, >= 0) each particle has rested (see [`crate::sleep`]), by id;
+    /// empty when none has.
+    pub rest: Vec<f64>,
 }
 
 impl ContactImpulses {
     /// True when nothing is remembered.
     pub fn is_empty(&self) -> bool {
-        self.pairs.is_empty() && self.planes.is_empty()
+        self.pairs.is_empty() && self.planes.is_empty() && self.rest.iter().all(|&t| t == 0.0)
     }
 }
 
@@ -43,6 +46,8 @@ pub(crate) struct Memory {
     pub pairs: Vec<(u32, u32, f64)>,
     /// `(slot, plane, impulse per unit mass)`, sorted.
     pub planes: Vec<(u32, u32, f64)>,
+    /// Reused space for [`Memory::store_keeping_asleep`].
+    pub scratch: Vec<(u32, u32, f64)>,
 }
 
 impl Memory {
@@ -94,6 +99,36 @@ impl Memory {
         }
     }
 
+    /// [`Memory::store`], keeping the entries of `into` whose first slot `sleeps` (a sleeping
+    /// island's contacts are not in `keys`, and keep their impulses for when it wakes). `keys`
+    /// names no sleeping slot, so the two sorted lists merge without a clash; `scratch` is
+    /// reused space.
+    pub fn store_keeping_asleep(
+        into: &mut Vec<(u32, u32, f64)>,
+        scratch: &mut Vec<(u32, u32, f64)>,
+        keys: &[Pair],
+        impulse: impl Fn(usize) -> f64,
+        sleeps: impl Fn(u32) -> bool,
+    ) {
+        scratch.clear();
+        scratch.extend(into.iter().copied().filter(|e| sleeps(e.0)));
+        if scratch.is_empty() {
+            return Self::store(into, keys, impulse);
+        }
+        into.clear();
+        let mut kept = scratch.iter().copied().peekable();
+        for (k, &(i, j)) in keys.iter().enumerate() {
+            while let Some(e) = kept.next_if(|e| (e.0, e.1) < (i, j)) {
+                into.push(e);
+            }
+            let value = impulse(k);
+            if value > 0.0 {
+                into.push((i, j, value));
+            }
+        }
+        into.extend(kept);
+    }
+
     /// Renames slots after a spatial sort: `old_ids[slot]` is the id that was in `slot`,
     /// `new_slots[id]` the slot it is in now.
     pub fn remap(&mut self, old_ids: &[u32], new_slots: &[u32]) {
@@ -117,6 +152,7 @@ impl Memory {
     /// The public form, by id.
     pub fn by_id(&self, ids: &[u32]) -> ContactImpulses {
         let mut out = ContactImpulses {
+            rest: Vec::new(),
             pairs: self
                 .pairs
                 .iter()
@@ -155,6 +191,7 @@ impl Memory {
                 .iter()
                 .map(|&(a, p, v)| (slot(a), p, v))
                 .collect(),
+            scratch: Vec::new(),
         };
         memory.sort();
         memory
@@ -163,7 +200,7 @@ impl Memory {
 
 /// Whether `impulses` can belong to a world of `particles` particles and `planes` planes:
 /// ids and plane indices in range, pairs of two different particles, every value finite and
-/// above zero, no key twice.
+/// above zero, no key twice; rest times finite and >= 0, none or one per particle.
 pub(crate) fn is_valid(impulses: &ContactImpulses, particles: usize, planes: usize) -> bool {
     let good = |v: f64| v.is_finite() && v > 0.0;
     let pairs_ok = impulses
@@ -182,7 +219,9 @@ pub(crate) fn is_valid(impulses: &ContactImpulses, particles: usize, planes: usi
             .planes
             .windows(2)
             .all(|w| (w[0].0, w[0].1) < (w[1].0, w[1].1));
-    pairs_ok && planes_ok
+    let rest_ok = (impulses.rest.is_empty() || impulses.rest.len() == particles)
+        && impulses.rest.iter().all(|t| t.is_finite() && *t >= 0.0);
+    pairs_ok && planes_ok && rest_ok
 }
 
 #[cfg(test)]
@@ -203,6 +242,7 @@ mod tests {
         let mut m = Memory {
             pairs: vec![(0, 1, 1.0), (1, 2, 2.0)],
             planes: vec![(2, 0, 3.0)],
+            ..Default::default()
         };
         // slot 0 held id 5, slot 1 id 6, slot 2 id 7; now id 5 is in slot 2, 6 in 0, 7 in 1
         let old_ids = [5, 6, 7];
@@ -218,6 +258,7 @@ mod tests {
         let m = Memory {
             pairs: vec![(0, 2, 1.5)],
             planes: vec![(1, 3, 0.5)],
+            ..Default::default()
         };
         let ids = [2, 0, 1];
         let public = m.by_id(&ids);
@@ -227,6 +268,23 @@ mod tests {
         let back = Memory::from_ids(&public, &slots);
         assert_eq!(back.pairs, m.pairs);
         assert_eq!(back.planes, m.planes);
+    }
+
+    #[test]
+    fn storing_keeps_the_sleeping_contacts() {
+        let mut into = vec![(0, 1, 1.0), (2, 3, 2.0), (4, 5, 3.0)];
+        let mut scratch = Vec::new();
+        // slots 0, 1, 4, 5 sleep; this step's (awake) contacts are (2, 3) and (3, 6)
+        let keys = [(2, 3), (3, 6)];
+        let values = [0.5, 0.0];
+        Memory::store_keeping_asleep(
+            &mut into,
+            &mut scratch,
+            &keys,
+            |k| values[k],
+            |s| [0, 1, 4, 5].contains(&s),
+        );
+        assert_eq!(into, vec![(0, 1, 1.0), (2, 3, 0.5), (4, 5, 3.0)]);
     }
 
     #[test]
@@ -241,7 +299,7 @@ mod tests {
         for pairs in bad {
             let c = ContactImpulses {
                 pairs,
-                planes: vec![],
+                ..Default::default()
             };
             assert!(!is_valid(&c, 3, 1));
         }

@@ -96,7 +96,7 @@ pub struct SolverSettings {
 impl SolverSettings {
     /// True when every contact takes the lecture's response alone: no gravity to rest against
     /// (resting speed 0), or `k = 1` everywhere.
-    fn lecture_only(&self, planes_elastic: bool) -> bool {
+    pub(crate) fn lecture_only(&self, planes_elastic: bool) -> bool {
         self.resting_speed <= 0.0 || (self.restitution >= 1.0 && planes_elastic)
     }
 
@@ -459,6 +459,8 @@ pub(crate) struct Moving<'a, V> {
     pub position: &'a mut [V],
     pub velocity: &'a mut [V],
     pub own: usize,
+    /// Per own slot, whether it sleeps this step (see [`crate::sleep`]); empty when none does.
+    pub asleep: &'a [bool],
 }
 
 /// Gravity, the velocity phase and the move, for one step of `dt`.
@@ -493,6 +495,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         position,
         velocity,
         own,
+        asleep,
     } = m;
     let elastic_planes = c.planes.iter().all(|p| p.restitution() >= 1.0);
     let substeps = if settings.lecture_only(elastic_planes) {
@@ -529,7 +532,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
                 break;
             }
         } else {
-            accelerate(parallel, &mut velocity[..own], gravity * h);
+            accelerate(parallel, &mut velocity[..own], asleep, gravity * h);
             if !settings.lecture_pairs() || !elastic_planes {
                 warm_start(exchange, velocity, c);
             }
@@ -544,7 +547,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         solve.iterations += sweeps;
         solve.capped |= capped;
         if pass == Pass::Relax {
-            advance_positions(parallel, &mut position[..own], &velocity[..own], h);
+            advance_positions(parallel, &mut position[..own], &velocity[..own], asleep, h);
             if substeps > 1 {
                 place(exchange, position, c, h);
             }
@@ -554,32 +557,68 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     solve
 }
 
-/// `v += dv` for every particle, on the thread pool when `parallel` (each particle's update is
-/// its own, so the result is the same either way).
-fn accelerate<V: Vector>(parallel: bool, velocity: &mut [V], dv: V) {
+/// `v += dv` for every particle not `asleep` (empty: none is), on the thread pool when
+/// `parallel` (each particle's update is its own, so the result is the same either way).
+fn accelerate<V: Vector>(parallel: bool, velocity: &mut [V], asleep: &[bool], dv: V) {
+    let chunk = |(c, v): (usize, &mut [V])| {
+        if asleep.is_empty() {
+            v.iter_mut().for_each(|v| *v += dv);
+        } else {
+            let asleep = &asleep[c * PARTICLE_CHUNK..][..v.len()];
+            for (v, &sleeps) in v.iter_mut().zip(asleep) {
+                if !sleeps {
+                    *v += dv;
+                }
+            }
+        }
+    };
     if parallel {
         velocity
             .par_chunks_mut(PARTICLE_CHUNK)
-            .for_each(|c| c.iter_mut().for_each(|v| *v += dv));
+            .enumerate()
+            .for_each(chunk);
     } else {
-        velocity.iter_mut().for_each(|v| *v += dv);
+        velocity
+            .chunks_mut(PARTICLE_CHUNK)
+            .enumerate()
+            .for_each(chunk);
     }
 }
 
-/// `x += v h` for every particle (see [`accelerate`]).
-fn advance_positions<V: Vector>(parallel: bool, position: &mut [V], velocity: &[V], h: f64) {
-    let chunk = |(x, v): (&mut [V], &[V])| {
-        for (x, v) in x.iter_mut().zip(v) {
-            *x += *v * h;
+/// `x += v h` for every particle not `asleep` (see [`accelerate`]).
+fn advance_positions<V: Vector>(
+    parallel: bool,
+    position: &mut [V],
+    velocity: &[V],
+    asleep: &[bool],
+    h: f64,
+) {
+    let chunk = |(c, (x, v)): (usize, (&mut [V], &[V]))| {
+        if asleep.is_empty() {
+            for (x, v) in x.iter_mut().zip(v) {
+                *x += *v * h;
+            }
+        } else {
+            let asleep = &asleep[c * PARTICLE_CHUNK..][..x.len()];
+            for ((x, v), &sleeps) in x.iter_mut().zip(v).zip(asleep) {
+                if !sleeps {
+                    *x += *v * h;
+                }
+            }
         }
     };
     if parallel {
         position
             .par_chunks_mut(PARTICLE_CHUNK)
             .zip(velocity.par_chunks(PARTICLE_CHUNK))
+            .enumerate()
             .for_each(chunk);
     } else {
-        chunk((position, velocity));
+        position
+            .chunks_mut(PARTICLE_CHUNK)
+            .zip(velocity.chunks(PARTICLE_CHUNK))
+            .enumerate()
+            .for_each(chunk);
     }
 }
 

@@ -30,6 +30,7 @@ use crate::memory::{self, ContactImpulses, Memory};
 use crate::particles::Particles;
 use crate::plane::{check_restitution, Plane};
 use crate::schedule::{Alone, Blocks, PlaneContact};
+use crate::sleep::{self, Islands, SleepSettings, DEFAULT_SLEEP_TIME, SLEEP_SPEED_FRACTION};
 use crate::solver::{
     self, Contacts, Moving, PlaneRow, Row, SolverSettings, VelocitySolve, WorkList,
 };
@@ -77,6 +78,15 @@ pub struct WorldConfig<V> {
     /// gravity, where every contact follows the lecture's formula exactly). `Some(0.0)` turns
     /// this off. Restitution 1 always bounces, so energy stays exact.
     pub resting_speed: Option<f64>,
+    /// Let islands at rest sleep (see [`crate::sleep`]); off by default. Only when contacts can
+    /// rest (gravity, and `k < 1` somewhere): an elastic or weightless world never sleeps.
+    /// A world split over processes ([`crate::cluster`]) does not sleep yet, and refuses it.
+    pub sleep: bool,
+    /// A particle moving slower than this (length / time) rests; `None`: half the resting
+    /// speed (see [`crate::sleep::SLEEP_SPEED_FRACTION`]).
+    pub sleep_speed: Option<f64>,
+    /// How long (time units, > 0) every particle of an island must rest before it sleeps.
+    pub sleep_time: f64,
 }
 
 impl<V: Vector> WorldConfig<V> {
@@ -96,6 +106,22 @@ impl<V: Vector> WorldConfig<V> {
             substeps: self.substeps,
         }
     }
+
+    /// When islands may sleep in a world with `planes`: `None` when sleeping is off or no
+    /// contact can rest.
+    pub fn sleep_settings(&self, planes: &[Plane<V>]) -> Option<SleepSettings> {
+        let elastic_planes = planes.iter().all(|p| p.restitution() >= 1.0);
+        let solver = self.solver_settings();
+        if !self.sleep || solver.lecture_only(elastic_planes) {
+            return None;
+        }
+        Some(SleepSettings {
+            speed: self
+                .sleep_speed
+                .unwrap_or(SLEEP_SPEED_FRACTION * solver.resting_speed),
+            time: self.sleep_time,
+        })
+    }
 }
 
 impl<V: Vector> Default for WorldConfig<V> {
@@ -111,6 +137,9 @@ impl<V: Vector> Default for WorldConfig<V> {
             broad_phase: BroadPhaseKind::Grid,
             grid_cells: None,
             resting_speed: None,
+            sleep: false,
+            sleep_speed: None,
+            sleep_time: DEFAULT_SLEEP_TIME,
         }
     }
 }
@@ -188,6 +217,21 @@ impl<V: Vector> WorldBuilder<V> {
         self.config.resting_speed = Some(speed);
         self
     }
+    /// Lets islands at rest sleep, or not (the default; see [`crate::sleep`]).
+    pub fn sleep(mut self, on: bool) -> Self {
+        self.config.sleep = on;
+        self
+    }
+    /// Sleep speed (length / time, > 0): see [`WorldConfig::sleep_speed`].
+    pub fn sleep_speed(mut self, speed: f64) -> Self {
+        self.config.sleep_speed = Some(speed);
+        self
+    }
+    /// Sleep time (time units, > 0): see [`WorldConfig::sleep_time`].
+    pub fn sleep_time(mut self, time: f64) -> Self {
+        self.config.sleep_time = time;
+        self
+    }
     /// Grid cells per axis (one entry per dimension, each >= 1).
     pub fn grid_cells(mut self, cells: &[usize]) -> Self {
         self.config.grid_cells = Some(cells.to_vec());
@@ -241,6 +285,14 @@ impl<V: Vector> WorldBuilder<V> {
         if config.substeps == 0 {
             return Err(EngineError::Substeps);
         }
+        if let Some(speed) = config.sleep_speed {
+            if !(speed.is_finite() && speed > 0.0) {
+                return Err(EngineError::NonFinite("sleep speed (must be > 0)"));
+            }
+        }
+        if !(config.sleep_time.is_finite() && config.sleep_time > 0.0) {
+            return Err(EngineError::NonFinite("sleep time (must be > 0)"));
+        }
         if let Some(speed) = config.resting_speed {
             if !(speed.is_finite() && speed >= 0.0) {
                 return Err(EngineError::NonFinite("resting speed (must be >= 0)"));
@@ -271,6 +323,13 @@ impl<V: Vector> WorldBuilder<V> {
             return Err(EngineError::ContactImpulses);
         }
         let remembered = Memory::from_ids(&self.impulses, &slots);
+        let rest = if self.impulses.rest.is_empty() {
+            vec![0.0; n]
+        } else {
+            ids.iter()
+                .map(|&id| self.impulses.rest[id as usize])
+                .collect()
+        };
         let store = if ids
             .iter()
             .enumerate()
@@ -305,6 +364,11 @@ impl<V: Vector> WorldBuilder<V> {
             plane_rows: Vec::new(),
             plane_buffers: Vec::new(),
             memory: remembered,
+            rest,
+            islands: Islands::default(),
+            start: Vec::new(),
+            all_asleep: false,
+            asleep_overlap: 0.0,
             unsorted_ids: Vec::new(),
             blocks: Blocks::default(),
             stamps: Vec::new(),
@@ -384,6 +448,17 @@ pub struct World<V: Vector> {
     plane_buffers: Vec<Vec<PlaneContact>>,
     /// Resting impulses kept from the last step.
     memory: Memory,
+    /// How long each slot has rested (see [`crate::sleep`]).
+    rest: Vec<f64>,
+    /// This step's islands and who sleeps.
+    islands: Islands,
+    /// Positions at the start of the step (only when islands may sleep).
+    start: Vec<V>,
+    /// Every particle slept through the last step and nothing has woken any since: the next
+    /// step would find them all asleep again, so it skips straight to the end.
+    all_asleep: bool,
+    /// The deepest overlap in the sleeping islands (as in [`StepStats::max_overlap`]).
+    asleep_overlap: f64,
     /// Ids by slot before a sort (scratch).
     unsorted_ids: Vec<u32>,
     blocks: Blocks,
@@ -470,6 +545,7 @@ impl Sorter {
         &mut self,
         store: &mut Particles<V>,
         ids: &mut [u32],
+        rest: &mut [f64],
         slots: &mut [u32],
         domain: Option<Aabb<V>>,
     ) {
@@ -497,13 +573,21 @@ impl Sorter {
                 radius[start],
                 mass[start],
                 ids[start],
+                rest[start],
             );
             let mut s = start;
             loop {
                 self.done[s / 64] |= 1 << (s % 64);
                 let from = self.order[s] as usize;
                 if from == start {
-                    (position[s], velocity[s], radius[s], mass[s], ids[s]) = saved;
+                    (
+                        position[s],
+                        velocity[s],
+                        radius[s],
+                        mass[s],
+                        ids[s],
+                        rest[s],
+                    ) = saved;
                     break;
                 }
                 position[s] = position[from];
@@ -511,6 +595,7 @@ impl Sorter {
                 radius[s] = radius[from];
                 mass[s] = mass[from];
                 ids[s] = ids[from];
+                rest[s] = rest[from];
                 s = from;
             }
         }
@@ -532,6 +617,7 @@ impl<V: Vector> Phases for World<V> {
         self.sorter.sort(
             &mut self.store,
             &mut self.ids,
+            &mut self.rest,
             &mut self.slots,
             self.config.domain,
         );
@@ -541,6 +627,16 @@ impl<V: Vector> Phases for World<V> {
     fn find_contacts(&mut self) {
         let parallel = self.parallel();
         let dt = self.config.dt;
+        let sleep = self.config.sleep_settings(&self.planes);
+        if self.all_asleep {
+            // (the islands, contacts and rows of a world asleep are those of the last step,
+            // which slept whole: nothing to find, nothing to solve)
+            self.pairs.clear();
+            self.rows.clear();
+            self.plane_contacts.clear();
+            self.plane_rows.clear();
+            return;
+        }
         let fall = self.config.gravity.length_squared().sqrt() * dt;
         let reach = |(out, (v, &r)): (&mut f64, (&V, &f64))| {
             *out = solver::reach(r, v.length_squared().sqrt() + fall, dt);
@@ -560,6 +656,10 @@ impl<V: Vector> Phases for World<V> {
         }
         self.broad_phase
             .find_pairs(&self.store.position, &self.reach, &mut self.pairs);
+        match sleep {
+            Some(settings) => self.put_islands_to_sleep(settings.time, parallel),
+            None => self.islands.wake_all(),
+        }
         self.find_plane_contacts(parallel);
         self.blocks.plan(
             self.store.len(),
@@ -608,34 +708,80 @@ impl<V: Vector> Phases for World<V> {
     fn integrate(&mut self) -> VelocitySolve {
         let settings = self.config.solver_settings();
         let (gravity, dt) = (self.config.gravity, self.config.dt);
-        let (mut contacts, store) = self.contacts_mut();
+        if self.all_asleep {
+            return VelocitySolve::default();
+        }
+        let (mut contacts, store, islands) = self.contacts_mut();
         let own = store.len();
         let moving = Moving {
             position: &mut store.position,
             velocity: &mut store.velocity,
             own,
+            asleep: if islands.count > 0 {
+                &islands.asleep
+            } else {
+                &[]
+            },
         };
         solver::integrate(&mut Alone, &settings, gravity, dt, moving, &mut contacts)
     }
 
     fn separate(&mut self) -> f64 {
         let settings = self.config.solver_settings();
-        let (mut contacts, store) = self.contacts_mut();
-        solver::separate(&mut Alone, &settings, &mut store.position, &mut contacts)
+        if self.all_asleep {
+            return self.asleep_overlap;
+        }
+        let (mut contacts, store, _) = self.contacts_mut();
+        let awake = solver::separate(&mut Alone, &settings, &mut store.position, &mut contacts);
+        awake.max(self.asleep_overlap)
     }
 
     fn remember(&mut self) {
-        let rows = &self.rows;
-        Memory::store(&mut self.memory.pairs, &self.pairs, |k| rows[k].kept);
+        if self.all_asleep {
+            return;
+        }
+        let (rows, islands) = (&self.rows, &self.islands);
+        let memory = &mut self.memory;
+        let sleeps = |slot: u32| islands.sleeps(slot as usize);
+        Memory::store_keeping_asleep(
+            &mut memory.pairs,
+            &mut memory.scratch,
+            &self.pairs,
+            |k| rows[k].kept,
+            sleeps,
+        );
         let plane_rows = &self.plane_rows;
-        Memory::store(&mut self.memory.planes, &self.plane_contacts, |k| {
-            plane_rows[k].kept
-        });
+        Memory::store_keeping_asleep(
+            &mut memory.planes,
+            &mut memory.scratch,
+            &self.plane_contacts,
+            |k| plane_rows[k].kept,
+            sleeps,
+        );
     }
 
     fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats {
         self.steps += 1;
+        if let Some(settings) = self.config.sleep_settings(&self.planes) {
+            if !self.all_asleep {
+                sleep::update_rest(
+                    self.parallel(),
+                    &self.start,
+                    &self.store.position,
+                    if self.islands.count > 0 {
+                        &self.islands.asleep
+                    } else {
+                        &[]
+                    },
+                    &mut self.rest,
+                    &settings,
+                    self.config.dt,
+                );
+            }
+            self.all_asleep = !self.store.is_empty() && self.islands.count == self.store.len();
+        }
         StepStats {
+            asleep: self.islands.count,
             contacts: self.rows.iter().filter(|r| r.touching).count(),
             plane_contacts: self.plane_rows.iter().filter(|r| r.touching).count(),
             velocity_iterations: solve.iterations,
@@ -676,9 +822,13 @@ impl<V: Vector> World<V> {
             self.plane_buffers.resize_with(chunks, Vec::new);
         }
         let (position, reach, planes) = (&self.store.position, &self.reach, &self.planes);
+        let islands = &self.islands;
         let work = |(c, out): (usize, &mut Vec<PlaneContact>)| {
             out.clear();
             for i in c * INTEGRATE_CHUNK..((c + 1) * INTEGRATE_CHUNK).min(n) {
+                if islands.sleeps(i) {
+                    continue;
+                }
                 for (p, plane) in planes.iter().enumerate() {
                     if plane.signed_distance(position[i]) < reach[i] {
                         out.push((i as u32, p as u32));
@@ -704,8 +854,52 @@ impl<V: Vector> World<V> {
         keep_headroom(&mut self.plane_contacts);
     }
 
+    /// Marks this step's sleeping islands (see [`crate::sleep`]), stops them, and drops their
+    /// contacts from this step's candidates; keeps the positions the step starts from.
+    fn put_islands_to_sleep(&mut self, time: f64, parallel: bool) {
+        let asleep = self.islands.mark(&self.pairs, &self.rest, time);
+        self.start.clear();
+        self.start.extend_from_slice(&self.store.position);
+        self.asleep_overlap = 0.0;
+        if asleep == 0 {
+            return;
+        }
+        let (islands, p) = (&self.islands, &self.store);
+        // (measured here, as the position phase measures the awake ones)
+        for &(i, j) in &self.pairs {
+            let (i, j) = (i as usize, j as usize);
+            if islands.sleeps(i) {
+                let (ri, rj) = (p.radius[i], p.radius[j]);
+                let distance = (p.position[i] - p.position[j]).length_squared().sqrt();
+                let overlap = (ri + rj - distance) / ri.min(rj);
+                self.asleep_overlap = self.asleep_overlap.max(overlap);
+            }
+        }
+        for (slot, v) in self.store.velocity.iter_mut().enumerate() {
+            if islands.sleeps(slot) {
+                *v = V::ZERO;
+            }
+        }
+        // (an island is closed under the candidates: a pair sleeps whole or not at all)
+        self.pairs.retain(|&(i, _)| !islands.sleeps(i as usize));
+        let _ = parallel;
+    }
+
+    /// Wakes every island: the next step starts with nobody asleep and every rest time at zero.
+    fn wake_everything(&mut self) {
+        self.rest.fill(0.0);
+        self.islands.wake_all();
+        self.all_asleep = false;
+        self.asleep_overlap = 0.0;
+    }
+
+    /// Particles asleep in the last step (see [`crate::sleep`]).
+    pub fn asleep(&self) -> usize {
+        self.islands.count
+    }
+
     /// This step's contacts, for the solver.
-    fn contacts_mut(&mut self) -> (Contacts<'_, V>, &mut Particles<V>) {
+    fn contacts_mut(&mut self) -> (Contacts<'_, V>, &mut Particles<V>, &Islands) {
         self.stamps.resize(self.store.len(), 0);
         (
             Contacts {
@@ -721,6 +915,7 @@ impl<V: Vector> World<V> {
                 },
             },
             &mut self.store,
+            &self.islands,
         )
     }
 
@@ -772,6 +967,9 @@ impl<V: Vector> World<V> {
         self.by_id.take();
         let s = self.slots[id] as usize;
         self.store.velocity[s] = velocity;
+        // (a push wakes the particle, and with it its island at the next step)
+        self.rest[s] = 0.0;
+        self.all_asleep = false;
         Ok(())
     }
 
@@ -809,6 +1007,16 @@ impl<V: Vector> World<V> {
             return Err(EngineError::ContactImpulses);
         }
         self.memory = Memory::from_ids(&impulses, &slots);
+        self.rest = if impulses.rest.is_empty() {
+            vec![0.0; n]
+        } else {
+            storage_order
+                .iter()
+                .map(|&id| impulses.rest[id as usize])
+                .collect()
+        };
+        self.islands.wake_all();
+        self.all_asleep = false;
         for (slot, &id) in storage_order.iter().enumerate() {
             let id = id as usize;
             self.store.position[slot] = particles.position[id];
@@ -845,7 +1053,13 @@ impl<V: Vector> World<V> {
     /// The resting contacts' accumulated impulses from the last step, by id: what
     /// [`WorldBuilder::impulses`] needs to continue this run exactly.
     pub fn contact_impulses(&self) -> ContactImpulses {
-        self.memory.by_id(&self.ids)
+        let mut out = self.memory.by_id(&self.ids);
+        if self.rest.iter().any(|&t| t > 0.0) {
+            out.rest = (0..self.store.len())
+                .map(|id| self.rest[self.slots[id] as usize])
+                .collect();
+        }
+        out
     }
 
     /// Steps taken so far.
@@ -907,6 +1121,7 @@ impl<V: Vector> World<V> {
         check_restitution(k)?;
         self.config.restitution = k;
         self.memory.clear();
+        self.wake_everything();
         Ok(())
     }
 
@@ -917,6 +1132,7 @@ impl<V: Vector> World<V> {
         }
         self.config.gravity = g;
         self.memory.clear();
+        self.wake_everything();
         Ok(())
     }
 
@@ -925,6 +1141,7 @@ impl<V: Vector> World<V> {
         check_dt(dt)?;
         self.config.dt = dt;
         self.memory.clear();
+        self.wake_everything();
         Ok(())
     }
 

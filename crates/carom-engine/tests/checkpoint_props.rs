@@ -1,7 +1,8 @@
 //! Property: over random small scenes, 2D and 3D, saving a checkpoint after some steps and
 //! resuming from its bytes gives the very same state (bit for bit, by `state_hash`) as running
 //! straight through. The round trip goes through `carom_output::checkpoint::Checkpoint`'s real
-//! byte format (`write_to` / `read_from`), not through in-memory copies.
+//! byte format (`write_to` / `read_from`), not through in-memory copies. Some scenes let islands
+//! sleep, so a checkpoint taken with sleepers (their rest times) resumes the same.
 
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::{Aabb, BroadPhaseKind, Particles, Vector, World, WorldBuilder};
@@ -16,6 +17,8 @@ struct Setup {
     gravity: [f64; 3],
     restitution: f64,
     dt: f64,
+    /// Islands sleep at this speed (after 0.05 time units at rest), or never.
+    sleep_speed: Option<f64>,
 }
 
 type Body = ([f64; 3], [f64; 3], f64, f64);
@@ -27,6 +30,9 @@ fn builder<V: Vector>(setup: &Setup, particles: Particles<V>) -> WorldBuilder<V>
         .restitution(setup.restitution)
         .broad_phase(setup.kind)
         .particles(particles);
+    if let Some(speed) = setup.sleep_speed {
+        b = b.sleep(true).sleep_speed(speed).sleep_time(0.05);
+    }
     if setup.walls {
         let half = V::from_slice(&[10.0; 3]);
         b = b
@@ -59,6 +65,7 @@ fn checkpoint_of<V: Vector>(world: &World<V>) -> Checkpoint {
         masses: Vec::new(),
         pair_impulses: world.contact_impulses().pairs,
         plane_impulses: world.contact_impulses().planes,
+        rest: world.contact_impulses().rest,
     };
     for id in 0..world.len() {
         let (x, v, r, m) = world.particle(id);
@@ -89,6 +96,7 @@ fn resume_from<V: Vector>(setup: &Setup, bytes: &[u8]) -> World<V> {
         .impulses(carom_engine::ContactImpulses {
             pairs: cp.pair_impulses,
             planes: cp.plane_impulses,
+            rest: cp.rest,
         })
         .build()
         .expect("resumed world builds")
@@ -144,19 +152,23 @@ fn setup() -> impl Strategy<Value = Setup> {
         prop_oneof![Just([0.0; 3]), coords(-10.0, 10.0)],
         prop_oneof![Just(1.0), Just(0.0), 0.0f64..=1.0],
         prop_oneof![Just(0.01), 0.001f64..0.02],
+        prop_oneof![Just(None), Just(Some(0.5)), Just(Some(5.0))],
     )
-        .prop_map(|(kind, walls, gravity, restitution, dt)| Setup {
-            // The grid needs a domain: without walls, use the hash.
-            kind: if !walls && kind == BroadPhaseKind::Grid {
-                BroadPhaseKind::Hash
-            } else {
-                kind
+        .prop_map(
+            |(kind, walls, gravity, restitution, dt, sleep_speed)| Setup {
+                // The grid needs a domain: without walls, use the hash.
+                kind: if !walls && kind == BroadPhaseKind::Grid {
+                    BroadPhaseKind::Hash
+                } else {
+                    kind
+                },
+                walls,
+                gravity,
+                restitution,
+                dt,
+                sleep_speed,
             },
-            walls,
-            gravity,
-            restitution,
-            dt,
-        })
+        )
 }
 
 proptest! {

@@ -18,6 +18,7 @@
 //! n x f64                masses, by id
 //! u64 + m x (u32, u32, f64)   resting pair impulses (id a < id b, impulse), sorted
 //! u64 + m x (u32, u32, f64)   resting plane impulses (id, plane, impulse), sorted
+//! u64 + r x f64          rest times (time units) by id, r = 0 (none has rested) or n
 //! u64                    FNV-1a 64 of everything above
 //! ```
 //!
@@ -28,7 +29,7 @@
 use std::io::{self, Write};
 
 /// Bumped whenever the layout or the meaning of a field changes.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 
 const MAGIC: &[u8; 8] = b"CAROMCKP";
 
@@ -59,6 +60,9 @@ pub struct Checkpoint {
     pub pair_impulses: Vec<(u32, u32, f64)>,
     /// The same for particles on planes, `(id, plane, impulse)`.
     pub plane_impulses: Vec<(u32, u32, f64)>,
+    /// How long each particle has rested (the solver's sleep timers), by id; empty when none
+    /// has.
+    pub rest: Vec<f64>,
 }
 
 struct Hashing<W> {
@@ -119,6 +123,10 @@ impl Checkpoint {
                 w.write_all(&impulse.to_le_bytes())?;
             }
         }
+        w.write_all(&(self.rest.len() as u64).to_le_bytes())?;
+        for t in &self.rest {
+            w.write_all(&t.to_le_bytes())?;
+        }
         let hash = w.hash;
         out.write_all(&hash.to_le_bytes())
     }
@@ -178,6 +186,13 @@ impl Checkpoint {
         };
         let pair_impulses = impulses()?;
         let plane_impulses = impulses()?;
+        let count = r.u64()? as usize;
+        if count != 0 && count != n {
+            return Err(format!(
+                "damaged checkpoint: {count} rest times for {n} particles"
+            ));
+        }
+        let rest = (0..count).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
         if r.left() != 0 {
             return Err(format!("damaged checkpoint: {} bytes left over", r.left()));
         }
@@ -194,6 +209,7 @@ impl Checkpoint {
             masses,
             pair_impulses,
             plane_impulses,
+            rest,
         })
     }
 }
@@ -258,6 +274,7 @@ mod tests {
             masses: vec![1.0, 2.0],
             pair_impulses: vec![(0, 1, 0.75)],
             plane_impulses: vec![(1, 3, 0.125)],
+            rest: vec![0.5, 0.0],
         }
     }
 

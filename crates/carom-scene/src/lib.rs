@@ -88,6 +88,8 @@ impl<V: Vector> Scene<V> {
                 self.config.position_iterations,
             )
             .substeps(self.config.substeps)
+            .sleep(self.config.sleep)
+            .sleep_time(self.config.sleep_time)
             .broad_phase(self.config.broad_phase)
             .particles(particles);
         if let Some(d) = self.config.domain {
@@ -95,6 +97,9 @@ impl<V: Vector> Scene<V> {
         }
         if let Some(v) = self.config.resting_speed {
             b = b.resting_speed(v);
+        }
+        if let Some(v) = self.config.sleep_speed {
+            b = b.sleep_speed(v);
         }
         if let Some(c) = &self.config.grid_cells {
             b = b.grid_cells(c);
@@ -365,6 +370,17 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         None => None,
     };
 
+    let solver = raw.solver.as_ref();
+    let sleep = solver.and_then(|s| s.sleep).unwrap_or(false);
+    let sleep_speed = match solver.and_then(|s| s.sleep_speed) {
+        Some(v) => Some(ctx.positive("solver.sleep_speed", v)?),
+        None => None,
+    };
+    let sleep_time = match solver.and_then(|s| s.sleep_time) {
+        Some(v) => ctx.positive("solver.sleep_time", v)?,
+        None => carom_engine::sleep::DEFAULT_SLEEP_TIME,
+    };
+
     let mut planes = Vec::with_capacity(raw.planes.len());
     for (i, p) in raw.planes.iter().enumerate() {
         let f = |k: &str| format!("planes[{i}].{k}");
@@ -398,6 +414,9 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
             broad_phase,
             grid_cells,
             resting_speed,
+            sleep,
+            sleep_speed,
+            sleep_time,
         },
         walls,
         planes,

@@ -56,6 +56,9 @@ pub(crate) struct RawSolver {
     pub position_iterations: Option<i64>,
     pub substeps: Option<i64>,
     pub resting_speed: Option<f64>,
+    pub sleep: Option<bool>,
+    pub sleep_speed: Option<f64>,
+    pub sleep_time: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]

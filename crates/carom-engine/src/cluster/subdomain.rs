@@ -149,6 +149,9 @@ impl<V: Vector> std::fmt::Debug for Subdomain<V> {
 impl<V: Vector> Subdomain<V> {
     /// Rank `rank`'s share (of `ranks`) of `world`, which every rank built the same way.
     pub fn new(world: &World<V>, rank: usize, ranks: usize) -> Result<Self, EngineError> {
+        if world.config().sleep_settings(world.planes()).is_some() {
+            return Err(EngineError::SleepInSplitRun);
+        }
         let n = world.len();
         let partition = Partition::new(n, block_size(n, V::DIM), ranks);
         let slots = partition.slots_of(rank);
@@ -807,6 +810,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
                 position: &mut window.position,
                 velocity: &mut window.velocity,
                 own,
+                asleep: &[],
             };
             solver::integrate(exchange, &settings, gravity, dt, moving, contacts)
         })
@@ -842,6 +846,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
         let on_planes = s.plane_rows.iter().filter(|r| r.touching).count() as u64;
         let counts = self.link.sum(&[touching, on_planes]);
         StepStats {
+            asleep: 0,
             contacts: counts[0] as usize,
             plane_contacts: counts[1] as usize,
             velocity_iterations: solve.iterations,
