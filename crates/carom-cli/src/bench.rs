@@ -215,6 +215,8 @@ fn pile_cases(args: &BenchArgs) -> Vec<Case> {
         threads,
     };
     let lecture = pile_toml(2, 5000, 1.0, &[-100.0; 2], &[100.0; 2]);
+    // the shipped `lecture_pile_60hz` scene: the same, with islands at rest asleep
+    let sleeping = format!("{lecture}[solver]\nsleep = true\n");
     if args.quick {
         return vec![case("2D lecture pile, falling", lecture, 10, 20)];
     }
@@ -236,8 +238,14 @@ fn pile_cases(args: &BenchArgs) -> Vec<Case> {
             290,
         ),
         case(
-            "2D lecture pile, settled (steps 1500-1800)",
+            "2D lecture pile, settled awake (1500-1800)",
             lecture,
+            1500,
+            300,
+        ),
+        case(
+            "2D lecture pile, settled asleep (1500-1800)",
+            sleeping,
             1500,
             300,
         ),

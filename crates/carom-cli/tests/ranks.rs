@@ -122,26 +122,52 @@ fn zero_ranks_is_refused() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--ranks"));
 }
 
-/// Sleeping islands are not split across ranks yet: a split run of a scene that sleeps is
-/// refused before any work, naming the key, rather than giving other bits than one process.
+/// A pile whose islands fall asleep (dt = 1/60, a short sleep time): 2500 discs, so two or
+/// three ranks each own whole solver blocks.
+const SLEEPY: &str = r#"
+dimensions = 2
+dt = 0.016666666666666666
+steps = 520
+gravity = [0.0, -9.81]
+restitution = 0.5
+[solver]
+sleep = true
+sleep_time = 0.2
+[domain]
+min = [-50.0, -50.0]
+max = [50.0, 50.0]
+walls = true
+[[fill]]
+count = 2500
+radius = 0.5
+speed = 1.0
+seed = 3
+min = [-49.0, -49.0]
+max = [49.0, 0.0]
+"#;
+
+/// Islands that sleep span the ranks' borders: a split run sleeps the very same ones and
+/// writes the single process's bytes (final state, trajectory, checkpoint with rest times).
 #[test]
-fn a_split_run_of_a_sleeping_scene_is_refused() {
+fn a_sleeping_scene_splits_into_the_same_bytes() {
     let dir = tempfile::tempdir().unwrap();
-    let out_file = dir.path().join("out.csv");
-    let out = run_guarded(Command::new(env!("CARGO_BIN_EXE_carom")).args([
-        "run",
-        "--preset",
-        "lecture_pile_60hz",
-        "--steps",
-        "1",
-        "--ranks",
-        "2",
-        "--out",
-        out_file.to_str().unwrap(),
-    ]));
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("sleep"), "{stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    assert!(!out_file.exists(), "no output file");
+    let path = dir.path().join("sleepy.toml");
+    std::fs::write(&path, SLEEPY).unwrap();
+    let path = path.to_str().unwrap();
+    let one = tempfile::tempdir().unwrap();
+    // (the pile falls asleep whole at step 451; the last checkpoint is at 490)
+    let (single, summary) = run_into(one.path(), path, "520", &[]);
+    assert!(
+        summary.contains("all 2500 particles asleep since step"),
+        "{summary}"
+    );
+    for r in ["2", "3"] {
+        let split_dir = tempfile::tempdir().unwrap();
+        let (split, summary) = run_into(split_dir.path(), path, "520", &["--ranks", r]);
+        assert!(
+            summary.contains("all 2500 particles asleep since step"),
+            "{summary}"
+        );
+        assert_same_files(&single, &split, &format!("sleepy.toml on {r} ranks"));
+    }
 }

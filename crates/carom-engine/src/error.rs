@@ -59,12 +59,6 @@ pub enum EngineError {
          values > 0"
     )]
     ContactImpulses,
-    /// Sleeping islands asked of a world split over processes.
-    #[error(
-        "sleeping islands are not supported in a split run yet: set [solver] sleep = false \
-         to run this scene on ranks"
-    )]
-    SleepInSplitRun,
     /// More particles than ids (u32) can name.
     #[error("too many particles: {0} (at most {max})", max = u32::MAX)]
     TooManyParticles(usize),

@@ -78,11 +78,11 @@ pub struct WorldConfig<V> {
     /// gravity, where every contact follows the lecture's formula exactly). `Some(0.0)` turns
     /// this off. Restitution 1 always bounces, so energy stays exact.
     pub resting_speed: Option<f64>,
-    /// Let islands at rest sleep (see [`crate::sleep`]); off by default. Only when contacts can
-    /// rest (gravity, and `k < 1` somewhere): an elastic or weightless world never sleeps.
-    /// A world split over processes ([`crate::cluster`]) does not sleep yet, and refuses it.
+    /// Let islands at rest sleep (see [`crate::sleep`]); off by default. Only when contacts can rest (gravity, and `k < 1` somewhere): an elastic or weightless
+    /// world never sleeps. A world split over processes ([`crate::cluster`]) sleeps the same
+    /// islands.
     pub sleep: bool,
-    /// A particle moving slower than this (length / time) rests; `None`: half the resting
+    /// A particle moving slower than this (length / time) rests; `None`: the resting
     /// speed (see [`crate::sleep::SLEEP_SPEED_FRACTION`]).
     pub sleep_speed: Option<f64>,
     /// How long (time units, > 0) every particle of an island must rest before it sleeps.
@@ -657,7 +657,7 @@ impl<V: Vector> Phases for World<V> {
         self.broad_phase
             .find_pairs(&self.store.position, &self.reach, &mut self.pairs);
         match sleep {
-            Some(settings) => self.put_islands_to_sleep(settings.time, parallel),
+            Some(settings) => self.put_islands_to_sleep(settings.time),
             None => self.islands.wake_all(),
         }
         self.find_plane_contacts(parallel);
@@ -856,7 +856,7 @@ impl<V: Vector> World<V> {
 
     /// Marks this step's sleeping islands (see [`crate::sleep`]), stops them, and drops their
     /// contacts from this step's candidates; keeps the positions the step starts from.
-    fn put_islands_to_sleep(&mut self, time: f64, parallel: bool) {
+    fn put_islands_to_sleep(&mut self, time: f64) {
         let asleep = self.islands.mark(&self.pairs, &self.rest, time);
         self.start.clear();
         self.start.extend_from_slice(&self.store.position);
@@ -882,7 +882,6 @@ impl<V: Vector> World<V> {
         }
         // (an island is closed under the candidates: a pair sleeps whole or not at all)
         self.pairs.retain(|&(i, _)| !islands.sleeps(i as usize));
-        let _ = parallel;
     }
 
     /// Wakes every island: the next step starts with nobody asleep and every rest time at zero.

@@ -1,5 +1,6 @@
 //! One rank's part of a world, stepped in lockstep with the others.
 
+use super::islands::SplitIslands;
 use super::lender::{borrower, lender, Leftovers, Lender};
 use super::partition::Partition;
 use super::traffic::{Link, Traffic, TrafficKind};
@@ -13,7 +14,8 @@ use crate::grid::{bounding_box, widened_reach, Grid, GridLayout};
 use crate::memory::{ContactImpulses, Memory};
 use crate::particles::Particles;
 use crate::plane::Plane;
-use crate::schedule::{Blocks, PlaneContact};
+use crate::schedule::{Blocks, Exchange, PlaneContact};
+use crate::sleep;
 use crate::solver::{self, Contacts, Moving, PlaneRow, Row, VelocitySolve, WorkList};
 use crate::step::{self, Phases};
 use crate::vector::Vector;
@@ -79,6 +81,14 @@ pub struct Subdomain<V: Vector> {
     arrived_planes: Vec<(u32, u32, f64)>,
     /// Set by a migration: the next contact search places the arrived records.
     rerouting: bool,
+    /// How long each own slot has rested (see [`crate::sleep`]).
+    rest: Vec<f64>,
+    /// This step's sleeping own slots.
+    islands: SplitIslands,
+    /// Own positions at the start of the step (only when islands may sleep).
+    start: Vec<V>,
+    /// The deepest overlap in this rank's sleeping contacts (see `World`'s).
+    asleep_overlap: f64,
     leftovers: Leftovers<V>,
     blocks: Blocks,
     /// The sweep clock of the work lists (unused: a subdomain sweeps every contact).
@@ -149,9 +159,6 @@ impl<V: Vector> std::fmt::Debug for Subdomain<V> {
 impl<V: Vector> Subdomain<V> {
     /// Rank `rank`'s share (of `ranks`) of `world`, which every rank built the same way.
     pub fn new(world: &World<V>, rank: usize, ranks: usize) -> Result<Self, EngineError> {
-        if world.config().sleep_settings(world.planes()).is_some() {
-            return Err(EngineError::SleepInSplitRun);
-        }
         let n = world.len();
         let partition = Partition::new(n, block_size(n, V::DIM), ranks);
         let slots = partition.slots_of(rank);
@@ -183,12 +190,14 @@ impl<V: Vector> Subdomain<V> {
         for (slot, &id) in order.iter().enumerate() {
             slot_in_order[id as usize] = slot as u32;
         }
-        let (memory, memory_partners) = own_memory(
-            &world.contact_impulses(),
-            &slot_in_order,
-            &order,
-            slots.clone(),
-        );
+        let impulses = world.contact_impulses();
+        let rest = if impulses.rest.is_empty() {
+            vec![0.0; ids.len()]
+        } else {
+            ids.iter().map(|&id| impulses.rest[id as usize]).collect()
+        };
+        let (memory, memory_partners) =
+            own_memory(&impulses, &slot_in_order, &order, slots.clone());
         Ok(Self {
             config: world.config().clone(),
             planes: world.planes().to_vec(),
@@ -225,6 +234,10 @@ impl<V: Vector> Subdomain<V> {
             arrived_pairs: Vec::new(),
             arrived_planes: Vec::new(),
             rerouting: false,
+            rest,
+            islands: SplitIslands::default(),
+            start: Vec::new(),
+            asleep_overlap: 0.0,
             leftovers: Leftovers::default(),
             blocks: Blocks::default(),
             clock: 0,
@@ -283,7 +296,8 @@ impl<V: Vector> Subdomain<V> {
                 .vector(self.window.position[s])
                 .vector(self.window.velocity[s])
                 .f64(self.window.radius[s])
-                .f64(self.window.mass[s]);
+                .f64(self.window.mass[s])
+                .f64(self.rest[s]);
         }
         let mut remembered: Vec<Writer> = (0..size).map(|_| Writer::default()).collect();
         let w = &mut remembered[0];
@@ -312,18 +326,25 @@ impl<V: Vector> Subdomain<V> {
             while !r.is_empty() {
                 let id = r.u32();
                 storage_order.push(id);
-                records.push((id, r.vector::<V>(), r.vector::<V>(), r.f64(), r.f64()));
+                let (x, v) = (r.vector::<V>(), r.vector::<V>());
+                records.push((id, x, v, r.f64(), r.f64(), r.f64()));
             }
         }
         records.sort_unstable_by_key(|record| record.0);
         let mut particles = Particles::new();
-        for (_, x, v, radius, mass) in records {
+        let mut rest = Vec::with_capacity(n);
+        for (_, x, v, radius, mass, rested) in records {
             particles.position.push(x);
             particles.velocity.push(v);
             particles.radius.push(radius);
             particles.mass.push(mass);
+            rest.push(rested);
         }
         let mut impulses = ContactImpulses::default();
+        // (as `World::contact_impulses` gives them: none when nobody has rested)
+        if rest.iter().any(|&t| t > 0.0) {
+            impulses.rest = rest;
+        }
         for bytes in &received_memory {
             let mut r = Reader::new(bytes);
             for _ in 0..r.u64() {
@@ -403,7 +424,8 @@ impl<V: Vector> Subdomain<V> {
                 .vector(self.window.position[s])
                 .vector(self.window.velocity[s])
                 .f64(self.window.radius[s])
-                .f64(self.window.mass[s]);
+                .f64(self.window.mass[s])
+                .f64(self.rest[s]);
             let mine = pairs.partition_point(|e| (e.0 as usize) < s)
                 ..pairs.partition_point(|e| (e.0 as usize) <= s);
             w.u32(mine.len() as u32);
@@ -417,13 +439,13 @@ impl<V: Vector> Subdomain<V> {
                 w.u32(planes[k].1).f64(planes[k].2);
             }
         }
-        let mut arrived: Vec<(u64, V, V, f64, f64)> = Vec::with_capacity(own);
+        let mut arrived: Vec<(u64, V, V, f64, f64, f64)> = Vec::with_capacity(own);
         self.arrived_pairs.clear();
         self.arrived_planes.clear();
         for bytes in link.exchange(TrafficKind::Migration, outgoing) {
             let mut r = Reader::new(&bytes);
             while !r.is_empty() {
-                let record = (r.u64(), r.vector(), r.vector(), r.f64(), r.f64());
+                let record = (r.u64(), r.vector(), r.vector(), r.f64(), r.f64(), r.f64());
                 let id = record.0 as u32;
                 arrived.push(record);
                 for _ in 0..r.u32() {
@@ -436,12 +458,13 @@ impl<V: Vector> Subdomain<V> {
         }
         arrived.sort_unstable_by_key(|a| a.0);
         debug_assert_eq!(arrived.len(), own, "a rank keeps its slot count");
-        for (s, (value, x, v, radius, mass)) in arrived.into_iter().enumerate() {
+        for (s, (value, x, v, radius, mass, rested)) in arrived.into_iter().enumerate() {
             self.ids[s] = value as u32;
             self.window.position[s] = x;
             self.window.velocity[s] = v;
             self.window.radius[s] = radius;
             self.window.mass[s] = mass;
+            self.rest[s] = rested;
         }
         self.memory.clear();
         self.memory_partners.clear();
@@ -629,9 +652,13 @@ impl<V: Vector> Subdomain<V> {
         self.partners.clear();
         self.partners
             .extend(self.candidates.iter().map(|c| search.id[c.1 .1 as usize]));
+        self.put_islands_to_sleep(link);
         self.plane_contacts.clear();
         self.plane_rows.clear();
         for s in 0..own {
+            if self.islands.count > 0 && self.islands.asleep[s] {
+                continue;
+            }
             let x = self.window.position[s];
             for (p, plane) in self.planes.iter().enumerate() {
                 if plane.signed_distance(x) < self.reach[s] {
@@ -690,6 +717,58 @@ impl<V: Vector> Subdomain<V> {
             &self.pairs,
             &self.rows,
         );
+    }
+
+    /// [`World`]'s `put_islands_to_sleep` for this rank's share: marks the sleeping own slots
+    /// (collectively), stops them and drops their candidates; keeps the own positions the step
+    /// starts from.
+    fn put_islands_to_sleep<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
+        self.asleep_overlap = 0.0;
+        let Some(settings) = self.config.sleep_settings(&self.planes) else {
+            self.islands.count = 0;
+            return;
+        };
+        let own = self.own;
+        self.start.clear();
+        self.start.extend_from_slice(&self.window.position[..own]);
+        let asleep = self.islands.mark(
+            link,
+            &self.partition,
+            self.first_slot,
+            &self.pairs,
+            &self.rest,
+            settings.time,
+        );
+        if asleep == 0 {
+            return;
+        }
+        let (islands, search) = (&self.islands, &self.search);
+        for &((i, _), (ki, kj)) in &self.candidates {
+            if islands.asleep[i as usize] {
+                let (ki, kj) = (ki as usize, kj as usize);
+                let (ri, rj) = (search.radius[ki], search.radius[kj]);
+                let distance = (search.position[ki] - search.position[kj])
+                    .length_squared()
+                    .sqrt();
+                let overlap = (ri + rj - distance) / ri.min(rj);
+                self.asleep_overlap = self.asleep_overlap.max(overlap);
+            }
+        }
+        for (v, &sleeps) in self.window.velocity[..own].iter_mut().zip(&islands.asleep) {
+            if sleeps {
+                *v = V::ZERO;
+            }
+        }
+        // (an island is closed under the candidates: a pair sleeps whole or not at all)
+        let sleeps = |c: &(Pair, Pair)| islands.asleep[c.0 .0 as usize];
+        let mut k = 0;
+        self.partners.retain(|_| {
+            k += 1;
+            !sleeps(&self.candidates[k - 1])
+        });
+        self.candidates.retain(|c| !sleeps(c));
+        self.pairs.clear();
+        self.pairs.extend(self.candidates.iter().map(|c| c.0));
     }
 
     /// After a migration: turns the records that arrived with the particles into remembered
@@ -805,48 +884,109 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
         let settings = self.sub.config.solver_settings();
         let (gravity, dt) = (self.sub.config.gravity, self.sub.config.dt);
         let own = self.sub.own;
-        self.solve(|exchange, window, contacts| {
+        // (taken out for the phase, which borrows the rest of the subdomain)
+        let asleep = std::mem::take(&mut self.sub.islands.asleep);
+        let sleepers = if self.sub.islands.count > 0 {
+            &asleep[..]
+        } else {
+            &[]
+        };
+        let solve = self.solve(|exchange, window, contacts| {
             let moving = Moving {
                 position: &mut window.position,
                 velocity: &mut window.velocity,
                 own,
-                asleep: &[],
+                asleep: sleepers,
             };
             solver::integrate(exchange, &settings, gravity, dt, moving, contacts)
-        })
+        });
+        self.sub.islands.asleep = asleep;
+        solve
     }
 
     fn separate(&mut self) -> f64 {
         let settings = self.sub.config.solver_settings();
+        let sleeping = self.sub.config.sleep_settings(&self.sub.planes).is_some();
+        let asleep_overlap = self.sub.asleep_overlap;
         self.solve(|exchange, window, contacts| {
-            solver::separate(exchange, &settings, &mut window.position, contacts)
+            let awake = solver::separate(exchange, &settings, &mut window.position, contacts);
+            if sleeping {
+                awake.max(exchange.largest(asleep_overlap))
+            } else {
+                awake
+            }
         })
     }
 
     fn remember(&mut self) {
         let s = &mut *self.sub;
+        let islands = &s.islands;
+        let sleeps = |slot: u32| islands.count > 0 && islands.asleep[slot as usize];
+        // (a sleeping island's contacts keep their impulses, as in `World`: merged in order)
+        let kept: Vec<((u32, u32, f64), u32)> = if islands.count > 0 {
+            s.memory
+                .pairs
+                .iter()
+                .zip(&s.memory_partners)
+                .filter(|(e, _)| sleeps(e.0))
+                .map(|(&e, &p)| (e, p))
+                .collect()
+        } else {
+            Vec::new()
+        };
         s.memory.pairs.clear();
         s.memory_partners.clear();
+        let mut kept = kept.into_iter().peekable();
         for ((&(i, j), row), &partner) in s.pairs.iter().zip(&s.rows).zip(&s.partners) {
+            while let Some((e, p)) = kept.next_if(|(e, _)| (e.0, e.1) < (i, j)) {
+                s.memory.pairs.push(e);
+                s.memory_partners.push(p);
+            }
             if row.kept > 0.0 {
                 s.memory.pairs.push((i, j, row.kept));
                 s.memory_partners.push(partner);
             }
         }
+        for (e, p) in kept {
+            s.memory.pairs.push(e);
+            s.memory_partners.push(p);
+        }
         let plane_rows = &s.plane_rows;
-        Memory::store(&mut s.memory.planes, &s.plane_contacts, |k| {
-            plane_rows[k].kept
-        });
+        Memory::store_keeping_asleep(
+            &mut s.memory.planes,
+            &mut s.memory.scratch,
+            &s.plane_contacts,
+            |k| plane_rows[k].kept,
+            sleeps,
+        );
     }
 
     fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats {
         let s = &mut *self.sub;
         s.steps += 1;
+        let asleep = if s.islands.count > 0 {
+            &s.islands.asleep[..]
+        } else {
+            &[]
+        };
+        if let Some(settings) = s.config.sleep_settings(&s.planes) {
+            sleep::update_rest(
+                false,
+                &s.start,
+                &s.window.position[..s.own],
+                asleep,
+                &mut s.rest,
+                &settings,
+                s.config.dt,
+            );
+        }
         let touching = s.rows.iter().filter(|r| r.touching).count() as u64;
         let on_planes = s.plane_rows.iter().filter(|r| r.touching).count() as u64;
-        let counts = self.link.sum(&[touching, on_planes]);
+        let counts = self
+            .link
+            .sum(&[touching, on_planes, s.islands.count as u64]);
         StepStats {
-            asleep: 0,
+            asleep: counts[2] as usize,
             contacts: counts[0] as usize,
             plane_contacts: counts[1] as usize,
             velocity_iterations: solve.iterations,

@@ -17,11 +17,13 @@ pub enum TrafficKind {
     Leftovers,
     /// Sums that stop a solver phase, bounding boxes, step statistics.
     Reductions,
+    /// Which islands span ranks, and whether they may sleep (see `cluster::islands`).
+    Islands,
     /// The whole state collected on rank 0 for output.
     Gather,
 }
 
-const KINDS: usize = 6;
+const KINDS: usize = 7;
 
 impl TrafficKind {
     /// Every kind, in report order.
@@ -31,6 +33,7 @@ impl TrafficKind {
         TrafficKind::Ghosts,
         TrafficKind::Leftovers,
         TrafficKind::Reductions,
+        TrafficKind::Islands,
         TrafficKind::Gather,
     ];
 
@@ -42,6 +45,7 @@ impl TrafficKind {
             TrafficKind::Ghosts => "ghosts",
             TrafficKind::Leftovers => "leftovers",
             TrafficKind::Reductions => "reductions",
+            TrafficKind::Islands => "islands",
             TrafficKind::Gather => "gather",
         }
     }
