@@ -609,7 +609,7 @@ impl<V: Vector> Phases for World<V> {
     fn sort_along_space(&mut self) {
         self.by_id.take();
         self.contacts_by_id.take();
-        if self.steps % REORDER_INTERVAL != 0 || self.store.is_empty() {
+        if self.steps % REORDER_INTERVAL != 0 || self.store.is_empty() || self.sleeps_whole() {
             return;
         }
         self.unsorted_ids.clear();
@@ -882,6 +882,20 @@ impl<V: Vector> World<V> {
         }
         // (an island is closed under the candidates: a pair sleeps whole or not at all)
         self.pairs.retain(|&(i, _)| !islands.sleeps(i as usize));
+    }
+
+    /// True when islands may sleep and every particle has rested long enough and stands still:
+    /// this step then finds the whole world asleep and nothing moves, so the spatial sort is
+    /// skipped (it was the only cost of a sleeping world: 3 us a step for the lecture pile,
+    /// 0.01 us without). A function of the state alone, so a resumed run skips it too.
+    pub(crate) fn sleeps_whole(&self) -> bool {
+        match self.config.sleep_settings(&self.planes) {
+            Some(settings) => {
+                self.rest.iter().all(|&t| t >= settings.time)
+                    && self.store.velocity.iter().all(|&v| v == V::ZERO)
+            }
+            None => false,
+        }
     }
 
     /// Wakes every island: the next step starts with nobody asleep and every rest time at zero.

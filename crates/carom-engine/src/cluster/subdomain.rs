@@ -169,11 +169,12 @@ impl<V: Vector> Subdomain<V> {
         // The ids in every slot. When the first step will sort anyway, take the order that
         // sort will give: every rank has the whole world here, so that step then finds every
         // particle on its rank already, instead of moving most of them.
-        let order: Vec<u32> = if world.steps_taken() % REORDER_INTERVAL == 0 {
-            world.next_sort_order()
-        } else {
-            world.ids.clone()
-        };
+        let order: Vec<u32> =
+            if world.steps_taken() % REORDER_INTERVAL == 0 && !world.sleeps_whole() {
+                world.next_sort_order()
+            } else {
+                world.ids.clone()
+            };
         let ids = order[slots.clone()].to_vec();
         let slot_of = |id: u32| world.slots[id as usize] as usize;
         let window = |v: &[V]| {
@@ -719,6 +720,18 @@ impl<V: Vector> Subdomain<V> {
         );
     }
 
+    /// [`World::sleeps_whole`] over every rank. Collective (only when islands may sleep).
+    fn sleeps_whole<T: Transport + ?Sized>(&self, link: &mut Link<'_, T>) -> bool {
+        let Some(settings) = self.config.sleep_settings(&self.planes) else {
+            return false;
+        };
+        let own = self.own;
+        let restless = (0..own)
+            .filter(|&s| self.rest[s] < settings.time || self.window.velocity[s] != V::ZERO)
+            .count() as u64;
+        self.partition.slots() > 0 && link.sum_of(TrafficKind::Islands, &[restless])[0] == 0
+    }
+
     /// [`World`]'s `put_islands_to_sleep` for this rank's share: marks the sleeping own slots
     /// (collectively), stops them and drops their candidates; keeps the own positions the step
     /// starts from.
@@ -871,7 +884,7 @@ impl<V: Vector, T: Transport + ?Sized> Stepping<'_, '_, '_, V, T> {
 
 impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
     fn sort_along_space(&mut self) {
-        if self.sub.steps % REORDER_INTERVAL == 0 {
+        if self.sub.steps % REORDER_INTERVAL == 0 && !self.sub.sleeps_whole(self.link) {
             self.sub.migrate(self.link);
         }
     }
