@@ -30,9 +30,10 @@ use rayon::prelude::*;
 /// but its discs have friction). Slower than that, the solver already treats an approach as
 /// resting (no bounce). Frictionless discs need that much: a disc in a bowl of its neighbours
 /// swings to and fro at up to ~0.25 for ever (nothing damps sliding). Measured on
-/// `scenes/lecture_pile_60hz.toml`: at a tenth of the resting speed the pile stayed awake to the
-/// end, at half of it one such disc kept it awake until step 1398, at the resting speed it
-/// sleeps from step 1199 (the avalanches on its slopes end near step 1150).
+/// `scenes/lecture_pile_60hz.toml` (at a498b7a, when resting pairs were moved apart to
+/// touching): at a tenth of the resting speed the pile stayed awake to the end, at half of it
+/// one such disc kept it awake until step 1398, at the resting speed it slept from step 1199
+/// (the avalanches on its slopes ended near step 1150). Now it sleeps from step 1021.
 pub const SLEEP_SPEED_FRACTION: f64 = 1.0;
 
 /// Default time (time units) an island must rest before it sleeps (Box2D's `b2_timeToSleep`).
