@@ -78,7 +78,8 @@ pub struct WorldConfig<V> {
     /// gravity, where every contact follows the lecture's formula exactly). `Some(0.0)` turns
     /// this off. Restitution 1 always bounces, so energy stays exact.
     pub resting_speed: Option<f64>,
-    /// Let islands at rest sleep (see [`crate::sleep`]); off by default. Only when contacts can rest (gravity, and `k < 1` somewhere): an elastic or weightless
+    /// Let islands at rest sleep (see [`crate::sleep`]); on by default, as in Box2D and Rapier.
+    /// Only when contacts can rest (gravity, and `k < 1` somewhere): an elastic or weightless
     /// world never sleeps. A world split over processes ([`crate::cluster`]) sleeps the same
     /// islands.
     pub sleep: bool,
@@ -137,7 +138,7 @@ impl<V: Vector> Default for WorldConfig<V> {
             broad_phase: BroadPhaseKind::Grid,
             grid_cells: None,
             resting_speed: None,
-            sleep: false,
+            sleep: true,
             sleep_speed: None,
             sleep_time: DEFAULT_SLEEP_TIME,
         }
@@ -217,7 +218,7 @@ impl<V: Vector> WorldBuilder<V> {
         self.config.resting_speed = Some(speed);
         self
     }
-    /// Lets islands at rest sleep, or not (the default; see [`crate::sleep`]).
+    /// Lets islands at rest sleep (the default), or not (see [`crate::sleep`]).
     pub fn sleep(mut self, on: bool) -> Self {
         self.config.sleep = on;
         self

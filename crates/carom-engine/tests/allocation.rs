@@ -28,9 +28,14 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// The counter is global, so the tests here take turns: one test's set-up would otherwise count
-/// as another's step allocations.
+/// The counter is global, so the tests here take turns, each for the whole of its run: one
+/// test's set-up (building worlds, warming them up) would otherwise count as another's step
+/// allocations.
 static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn my_turn() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 /// A jittered lattice gas filling a walled box, elastic and without gravity so that it reaches
 /// a steady state (contacts come and go every step, but their number does not keep growing,
@@ -65,10 +70,10 @@ fn gas<V: Vector>(per_axis: usize, kind: BroadPhaseKind) -> World<V> {
     b.build().unwrap()
 }
 
-fn allocations_in_steps<V: Vector>(world: &mut World<V>, steps: u64) -> usize {
-    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    // warm up over several re-sorts so every buffer has reached its working size
-    for _ in 0..8 * REORDER_INTERVAL {
+/// Allocations in `steps` steps after `warmup` steps (several re-sorts, so that every buffer
+/// has reached its working size). The caller holds [`my_turn`].
+fn allocations_in_steps<V: Vector>(world: &mut World<V>, warmup: u64, steps: u64) -> usize {
+    for _ in 0..warmup {
         world.step();
     }
     let before = ALLOCATIONS.load(Ordering::Relaxed);
@@ -90,6 +95,8 @@ fn allocations_in_steps<V: Vector>(world: &mut World<V>, steps: u64) -> usize {
 
 #[test]
 fn stepping_does_not_allocate_after_warm_up() {
+    let _turn = my_turn();
+    let warmup = 8 * REORDER_INTERVAL;
     // serial (small) and parallel (above the engine's threshold) paths, all broad phases
     for kind in [
         BroadPhaseKind::Grid,
@@ -97,7 +104,7 @@ fn stepping_does_not_allocate_after_warm_up() {
         BroadPhaseKind::Brute,
     ] {
         let mut w = gas::<DVec2>(30, kind);
-        let n = allocations_in_steps(&mut w, 2 * REORDER_INTERVAL);
+        let n = allocations_in_steps(&mut w, warmup, 2 * REORDER_INTERVAL);
         assert_eq!(n, 0, "2D, 900 particles, {kind:?}: {n} allocations");
     }
     // 22,500 particles: the parallel phases, on a one-thread pool so that no work is stolen
@@ -106,7 +113,7 @@ fn stepping_does_not_allocate_after_warm_up() {
         .build()
         .unwrap();
     let mut w = gas::<DVec2>(150, BroadPhaseKind::Grid);
-    let n = pool.install(|| allocations_in_steps(&mut w, REORDER_INTERVAL));
+    let n = pool.install(|| allocations_in_steps(&mut w, warmup, REORDER_INTERVAL));
     assert_eq!(n, 0, "2D, 22,500 particles, one thread: {n} allocations");
     // ... and on two threads. Stepping runs inside the pool: from outside it, every parallel
     // call is injected into rayon's global queue, which allocates a block per 63 injections
@@ -116,24 +123,23 @@ fn stepping_does_not_allocate_after_warm_up() {
         .build()
         .unwrap();
     let mut w = gas::<DVec2>(150, BroadPhaseKind::Grid);
-    let n = pool.install(|| allocations_in_steps(&mut w, REORDER_INTERVAL));
+    let n = pool.install(|| allocations_in_steps(&mut w, warmup, REORDER_INTERVAL));
     assert_eq!(n, 0, "2D, 22,500 particles, two threads: {n} allocations");
     let mut w = gas::<DVec3>(12, BroadPhaseKind::Grid);
-    let n = allocations_in_steps(&mut w, REORDER_INTERVAL);
+    let n = allocations_in_steps(&mut w, warmup, REORDER_INTERVAL);
     assert_eq!(n, 0, "3D, 1728 particles: {n} allocations");
 }
 
-/// The resting-contact solver (gravity, k < 1: substeps, remembered impulses) allocates nothing
-/// once a pile has settled.
-#[test]
-fn a_settled_pile_does_not_allocate() {
+/// 400 discs of radius 0.7 dropped in rows into a walled box at dt = 1/60, k = 0.5.
+fn pile(sleep: bool) -> World<DVec2> {
     let half = 20.0;
     let mut b = World::<DVec2>::builder()
         .dt(1.0 / 60.0)
         .gravity(DVec2::new(0.0, -9.81))
         .restitution(0.5)
         .domain(Aabb::new(DVec2::splat(-half), DVec2::splat(half)).unwrap())
-        .walls(0.5);
+        .walls(0.5)
+        .sleep(sleep);
     for k in 0..400 {
         let (i, j) = ((k % 16) as f64, (k / 16) as f64);
         b = b.particle(
@@ -143,10 +149,31 @@ fn a_settled_pile_does_not_allocate() {
             1.0,
         );
     }
-    let mut w = b.build().unwrap();
+    b.build().unwrap()
+}
+
+/// The resting-contact solver (gravity, k < 1: substeps, remembered impulses) allocates nothing
+/// once a pile has settled and is kept awake.
+#[test]
+fn a_settled_pile_does_not_allocate() {
+    let _turn = my_turn();
+    let mut w = pile(false);
+    let n = allocations_in_steps(&mut w, 40 * REORDER_INTERVAL, 2 * REORDER_INTERVAL);
+    assert_eq!(n, 0, "settled pile kept awake: {n} allocations");
+}
+
+/// Once a pile has fallen asleep (the islands' union-find and the kept impulses of sleeping
+/// contacts have grown to size), waking it and letting it fall asleep again allocates nothing.
+#[test]
+fn a_pile_waking_and_falling_asleep_again_does_not_allocate() {
+    let _turn = my_turn();
+    let mut w = pile(true);
     for _ in 0..40 * REORDER_INTERVAL {
         w.step();
     }
-    let n = allocations_in_steps(&mut w, 2 * REORDER_INTERVAL);
-    assert_eq!(n, 0, "settled pile: {n} allocations");
+    assert_eq!(w.asleep(), w.len(), "the pile must have fallen asleep");
+    w.set_velocity(0, DVec2::new(0.0, 3.0)).unwrap();
+    let n = allocations_in_steps(&mut w, 0, 40 * REORDER_INTERVAL);
+    assert_eq!(w.asleep(), w.len(), "and fallen asleep again");
+    assert_eq!(n, 0, "a pile waking and sleeping again: {n} allocations");
 }

@@ -371,7 +371,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     };
 
     let solver = raw.solver.as_ref();
-    let sleep = solver.and_then(|s| s.sleep).unwrap_or(false);
+    let sleep = solver.and_then(|s| s.sleep).unwrap_or(true);
     let sleep_speed = match solver.and_then(|s| s.sleep_speed) {
         Some(v) => Some(ctx.positive("solver.sleep_speed", v)?),
         None => None,
