@@ -14,16 +14,21 @@ const DT: f64 = 1.0 / 60.0;
 const G: f64 = 9.81;
 const HALF: f64 = 25.0;
 
-/// `n` discs of radius 1 at random in the upper half of a walled box, k = 0.5, sleep on.
-fn pour(n: usize, seed: u64) -> WorldBuilder<DVec2> {
-    let mut rng = Lcg::new(seed);
-    let mut b = World::<DVec2>::builder()
+/// The walled box every scene here uses: dt = 1/60, g = 9.81, k = 0.5, sleep on.
+fn the_box() -> WorldBuilder<DVec2> {
+    World::<DVec2>::builder()
         .dt(DT)
         .gravity(DVec2::new(0.0, -G))
         .restitution(0.5)
         .domain(Aabb::new(DVec2::splat(-HALF), DVec2::splat(HALF)).unwrap())
         .walls(0.5)
-        .sleep(true);
+        .sleep(true)
+}
+
+/// `n` discs of radius 1 at random in the upper half of a walled box, k = 0.5, sleep on.
+fn pour(n: usize, seed: u64) -> WorldBuilder<DVec2> {
+    let mut rng = Lcg::new(seed);
+    let mut b = the_box();
     let mut placed: Vec<DVec2> = Vec::new();
     while placed.len() < n {
         let x = DVec2::new(
@@ -128,13 +133,7 @@ fn a_ball_dropped_on_a_sleeping_pile_wakes_it_and_bounces_as_its_k_says() {
         .unwrap();
     let above = p.positions()[top] + DVec2::new(0.0, 8.0);
     let ball = w.len();
-    let mut b = World::<DVec2>::builder()
-        .dt(DT)
-        .gravity(DVec2::new(0.0, -G))
-        .restitution(0.5)
-        .domain(Aabb::new(DVec2::splat(-HALF), DVec2::splat(HALF)).unwrap())
-        .walls(0.5)
-        .sleep(true);
+    let mut b = the_box();
     for i in 0..p.len() {
         b = b.particle(p.positions()[i], p.velocities()[i], 1.0, 1.0);
     }
@@ -211,13 +210,7 @@ fn sleep_off_never_sleeps() {
 /// A world resumed from `w`'s state (particles by id, storage order, impulses, rest times).
 fn resumed(w: &World<DVec2>) -> World<DVec2> {
     let p = w.particles();
-    let mut b = World::<DVec2>::builder()
-        .dt(DT)
-        .gravity(DVec2::new(0.0, -G))
-        .restitution(0.5)
-        .domain(Aabb::new(DVec2::splat(-HALF), DVec2::splat(HALF)).unwrap())
-        .walls(0.5)
-        .sleep(true);
+    let mut b = the_box();
     for i in 0..p.len() {
         b = b.particle(
             p.positions()[i],
