@@ -161,6 +161,12 @@ pub(crate) fn update_rest<V: Vector>(
     }
 }
 
+/// True when every particle has rested at least `time` and stands exactly still (its
+/// velocity zero): the next step finds them all asleep.
+pub(crate) fn all_still<V: Vector>(rest: &[f64], velocity: &[V], time: f64) -> bool {
+    rest.iter().all(|&t| t >= time) && velocity.iter().all(|&v| v == V::ZERO)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -207,5 +213,22 @@ mod tests {
             0.1,
         );
         assert_eq!(rest, [0.3 + 0.1, 0.0, 0.3]);
+    }
+
+    #[test]
+    fn all_still_needs_every_rest_time_and_zero_velocities() {
+        let still = [DVec2::ZERO, DVec2::new(-0.0, 0.0)];
+        assert!(all_still(&[0.5, 0.7], &still, 0.5));
+        assert!(!all_still(&[0.5, 0.49], &still, 0.5));
+        assert!(!all_still(
+            &[0.5, 0.5],
+            &[DVec2::ZERO, DVec2::new(0.0, -1e-300)],
+            0.5
+        ));
+        assert!(!all_still(
+            &[0.5, 0.5],
+            &[DVec2::new(1e-300, 0.0), DVec2::ZERO],
+            0.5
+        ));
     }
 }

@@ -726,9 +726,8 @@ impl<V: Vector> Subdomain<V> {
             return false;
         };
         let own = self.own;
-        let restless = (0..own)
-            .filter(|&s| self.rest[s] < settings.time || self.window.velocity[s] != V::ZERO)
-            .count() as u64;
+        let still = sleep::all_still(&self.rest, &self.window.velocity[..own], settings.time);
+        let restless = u64::from(!still);
         self.partition.slots() > 0 && link.sum_of(TrafficKind::Islands, &[restless])[0] == 0
     }
 
