@@ -111,6 +111,15 @@ impl Islands {
         self.count > 0 && self.asleep[slot]
     }
 
+    /// Per slot, whether it sleeps this step; empty when none does (what the solver takes).
+    pub fn sleepers(&self) -> &[bool] {
+        if self.count > 0 {
+            &self.asleep
+        } else {
+            &[]
+        }
+    }
+
     /// Nobody sleeps (a parameter changed, or sleeping is off).
     pub fn wake_all(&mut self) {
         self.asleep.clear();

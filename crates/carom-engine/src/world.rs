@@ -718,11 +718,7 @@ impl<V: Vector> Phases for World<V> {
             position: &mut store.position,
             velocity: &mut store.velocity,
             own,
-            asleep: if islands.count > 0 {
-                &islands.asleep
-            } else {
-                &[]
-            },
+            asleep: islands.sleepers(),
         };
         solver::integrate(&mut Alone, &settings, gravity, dt, moving, &mut contacts)
     }
@@ -769,11 +765,7 @@ impl<V: Vector> Phases for World<V> {
                     self.parallel(),
                     &self.start,
                     &self.store.position,
-                    if self.islands.count > 0 {
-                        &self.islands.asleep
-                    } else {
-                        &[]
-                    },
+                    self.islands.sleepers(),
                     &mut self.rest,
                     &settings,
                     self.config.dt,

@@ -108,6 +108,21 @@ impl SplitIslands {
         self.joined.resize(total, false);
     }
 
+    /// True when own slot `slot` sleeps this step.
+    #[inline]
+    pub fn sleeps(&self, slot: usize) -> bool {
+        self.count > 0 && self.asleep[slot]
+    }
+
+    /// Per own slot, whether it sleeps this step; empty when none does.
+    pub fn sleepers(&self) -> &[bool] {
+        if self.count > 0 {
+            &self.asleep
+        } else {
+            &[]
+        }
+    }
+
     /// Index in the union-find of slot `j` (relative).
     fn index(&self, j: u32, own: usize) -> u32 {
         if (j as usize) < own {

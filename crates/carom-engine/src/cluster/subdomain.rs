@@ -75,6 +75,9 @@ pub struct Subdomain<V: Vector> {
     /// pair's `j`.
     memory: Memory,
     memory_partners: Vec<u32>,
+    /// The sleeping contacts' remembered impulses and partners, kept through `remember`
+    /// (reused space).
+    kept_asleep: Vec<((u32, u32, f64), u32)>,
     /// After a migration: `(own id, partner id, impulse)` and `(own id, plane, impulse)`
     /// records still to be matched to slots.
     arrived_pairs: Vec<(u32, u32, f64)>,
@@ -232,6 +235,7 @@ impl<V: Vector> Subdomain<V> {
             plane_rows: Vec::new(),
             memory,
             memory_partners,
+            kept_asleep: Vec::new(),
             arrived_pairs: Vec::new(),
             arrived_planes: Vec::new(),
             rerouting: false,
@@ -657,7 +661,7 @@ impl<V: Vector> Subdomain<V> {
         self.plane_contacts.clear();
         self.plane_rows.clear();
         for s in 0..own {
-            if self.islands.count > 0 && self.islands.asleep[s] {
+            if self.islands.sleeps(s) {
                 continue;
             }
             let x = self.window.position[s];
@@ -933,22 +937,22 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
     fn remember(&mut self) {
         let s = &mut *self.sub;
         let islands = &s.islands;
-        let sleeps = |slot: u32| islands.count > 0 && islands.asleep[slot as usize];
+        let sleeps = |slot: u32| islands.sleeps(slot as usize);
         // (a sleeping island's contacts keep their impulses, as in `World`: merged in order)
-        let kept: Vec<((u32, u32, f64), u32)> = if islands.count > 0 {
-            s.memory
-                .pairs
-                .iter()
-                .zip(&s.memory_partners)
-                .filter(|(e, _)| sleeps(e.0))
-                .map(|(&e, &p)| (e, p))
-                .collect()
-        } else {
-            Vec::new()
-        };
+        s.kept_asleep.clear();
+        if islands.count > 0 {
+            s.kept_asleep.extend(
+                s.memory
+                    .pairs
+                    .iter()
+                    .zip(&s.memory_partners)
+                    .filter(|(e, _)| sleeps(e.0))
+                    .map(|(&e, &p)| (e, p)),
+            );
+        }
         s.memory.pairs.clear();
         s.memory_partners.clear();
-        let mut kept = kept.into_iter().peekable();
+        let mut kept = s.kept_asleep.iter().copied().peekable();
         for ((&(i, j), row), &partner) in s.pairs.iter().zip(&s.rows).zip(&s.partners) {
             while let Some((e, p)) = kept.next_if(|(e, _)| (e.0, e.1) < (i, j)) {
                 s.memory.pairs.push(e);
@@ -976,11 +980,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
     fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats {
         let s = &mut *self.sub;
         s.steps += 1;
-        let asleep = if s.islands.count > 0 {
-            &s.islands.asleep[..]
-        } else {
-            &[]
-        };
+        let asleep = s.islands.sleepers();
         if let Some(settings) = s.config.sleep_settings(&s.planes) {
             sleep::update_rest(
                 false,
