@@ -46,6 +46,7 @@ enum Command {
 
 /// Options of `carom run`.
 #[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("framed").args(["trajectory", "observe"]).multiple(true)))]
 pub struct RunArgs {
     /// Scene file (TOML). Without it, the built-in default scene runs.
     pub scene: Option<PathBuf>,
@@ -80,8 +81,15 @@ pub struct RunArgs {
     /// ParaView (one `.vtp` per frame in a folder of the same name, plus the `.pvd` index).
     #[arg(long, requires = "every")]
     pub trajectory: Option<PathBuf>,
-    /// Steps between trajectory frames.
-    #[arg(long, requires = "trajectory")]
+    /// Write the observables to this CSV, a row at the start and one every `--every` steps:
+    /// `step,time,kinetic_energy,potential_energy,temperature,collisions,pressure,max_overlap`
+    /// (granular temperature; collisions since the start; virial pressure over the interval
+    /// since the previous row; deepest overlap as a fraction of the smaller radius; see
+    /// docs/validation.md). Not in split runs (`--ranks`, `mpirun`).
+    #[arg(long, requires = "every")]
+    pub observe: Option<PathBuf>,
+    /// Steps between trajectory frames and observables rows.
+    #[arg(long, requires = "framed")]
     pub every: Option<u64>,
     /// Split the run over N ranks, as threads of this process: the decomposition `mpirun -np
     /// N carom run` uses (see "Running on a cluster" in the README), without MPI. The result

@@ -194,6 +194,7 @@ fn run_scene<V: Vector>(
     let outputs = Outputs {
         checkpoint: args.checkpoint.clone().zip(args.checkpoint_every),
         trajectory: args.trajectory.clone().zip(args.every),
+        observe: args.observe.clone().zip(args.every),
         scene_toml: text,
         origin: origin.to_string(),
         settings: Settings {
@@ -241,6 +242,9 @@ pub fn run_world<V: Vector>(
                     "--ranks: not under mpirun, where the ranks are mpirun's processes",
                 ));
             }
+            if outputs.observe.is_some() {
+                return Err(refuse_split_observe());
+            }
             crate::cluster::mpi::check_gather_size(world.len(), V::DIM)
                 .map_err(|e| Failure::input(format!("{}: {e}", run.origin)))?;
             return run_split(world, mpi.transport(), true, steps, outputs, run);
@@ -248,6 +252,9 @@ pub fn run_world<V: Vector>(
     }
     match ranks {
         Some(0) => return Err(Failure::input("--ranks: must be at least 1")),
+        Some(ranks) if ranks > 1 && outputs.observe.is_some() => {
+            return Err(refuse_split_observe());
+        }
         Some(ranks) if ranks > 1 => {
             return run_thread_ranks(world, rebuild, ranks, steps, outputs, run);
         }
@@ -260,6 +267,15 @@ pub fn run_world<V: Vector>(
     let driven = drive(&mut world, steps, outputs, &progress)?;
     progress.finish_and_clear();
     finish(&world, run, before, &driven)
+}
+
+/// `--observe` in a split run: each rank sums the collisional virial of its own contacts, and
+/// those sums added in another order would not give one process's bits.
+fn refuse_split_observe() -> Failure {
+    Failure::input(
+        "--observe: not available in a split run (--ranks, mpirun): the pressure's virial is \
+         summed per rank and would not match one process's to the bit; observe with one rank",
+    )
 }
 
 /// How a run is named in its summary, and where its final state goes.

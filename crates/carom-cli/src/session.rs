@@ -15,15 +15,17 @@
 //!   finish another file (see [`write_whole`]).
 
 use crate::run::{check_output_path, Failure};
-use carom_engine::{ContactImpulses, StepStats, Vector, World};
+use carom_engine::{ContactImpulses, Observables, StepStats, Vector, World};
 use carom_output::checkpoint::Checkpoint;
 use indicatif::ProgressBar;
+use observe::ObservationFile;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
+pub mod observe;
 pub mod soak;
 pub mod vtk;
 
@@ -66,9 +68,9 @@ fn quit_at_once() -> ! {
     // A write that registered its temporary before this loses it (and then fails to rename it,
     // or halts in `write_whole`); one that starts after this halts before writing a byte.
     carom_output::remove_in_flight_temporaries();
-    // Held until the exit, so the trajectory gets no further byte.
-    let mut csv = csv_cut();
-    if let Some(cut) = csv.as_mut() {
+    // Held until the exit, so the CSV files get no further byte.
+    let csv = csv_cut();
+    for cut in csv.iter() {
         let _ = if cut.whole == 0 {
             std::fs::remove_file(&cut.path)
         } else {
@@ -108,8 +110,8 @@ where
     result
 }
 
-/// The CSV trajectory's file and the length of its whole frames, for a second interrupt to cut
-/// it back to.
+/// A CSV file being appended to (the trajectory, the observables) and the length of its whole
+/// rows or frames, for a second interrupt to cut it back to.
 struct CsvCut {
     path: PathBuf,
     file: std::fs::File,
@@ -117,33 +119,41 @@ struct CsvCut {
     whole: u64,
 }
 
-fn csv_cut() -> std::sync::MutexGuard<'static, Option<CsvCut>> {
-    static CSV: Mutex<Option<CsvCut>> = Mutex::new(None);
+/// Every CSV file this process appends to, by [`CsvFile::index`].
+fn csv_cut() -> std::sync::MutexGuard<'static, Vec<CsvCut>> {
+    static CSV: Mutex<Vec<CsvCut>> = Mutex::new(Vec::new());
     CSV.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
-/// The CSV trajectory's file under its `BufWriter`: every write holds the [`csv_cut`] lock and
-/// none starts once the process is exiting, so the cut sees no write half done.
-struct CsvFile {
+/// A CSV file under its `BufWriter`: every write holds the [`csv_cut`] lock and none starts
+/// once the process is exiting, so the cut sees no write half done.
+pub(crate) struct CsvFile {
     file: std::fs::File,
     /// Length of the file after the last byte written.
     end: u64,
+    /// Its place in [`csv_cut`].
+    index: usize,
 }
 
 impl CsvFile {
-    fn open(path: &Path, file: std::fs::File) -> std::io::Result<Self> {
+    pub(crate) fn open(path: &Path, file: std::fs::File) -> std::io::Result<Self> {
         let end = file.metadata()?.len();
-        *csv_cut() = Some(CsvCut {
+        let mut cuts = csv_cut();
+        cuts.push(CsvCut {
             path: path.to_path_buf(),
             file: file.try_clone()?,
             whole: end,
         });
-        Ok(Self { file, end })
+        Ok(Self {
+            file,
+            end,
+            index: cuts.len() - 1,
+        })
     }
 
-    /// Records that everything written so far (and flushed) ends in a whole frame.
-    fn mark_whole(&self) {
-        if let Some(cut) = csv_cut().as_mut() {
+    /// Records that everything written so far (and flushed) ends in a whole frame or row.
+    pub(crate) fn mark_whole(&self) {
+        if let Some(cut) = csv_cut().get_mut(self.index) {
             cut.whole = self.end;
         }
     }
@@ -181,6 +191,9 @@ pub trait Stepper<V: Vector> {
     fn steps_taken(&self) -> u64;
     /// The whole world as it is now, on the process that writes output (`None` on the others).
     fn world(&mut self) -> Option<&World<V>>;
+    /// A reading of the observables (see [`World::observe`]), closing the pressure's interval;
+    /// `None` where there is none to take (a split run, which refuses `--observe`).
+    fn observe(&mut self) -> Option<Observables>;
     /// True once Ctrl-C or SIGTERM asked the run (any rank of it) to stop.
     fn stop_requested(&mut self) -> bool;
     /// Runs the step loop `work` where stepping is cheapest.
@@ -196,6 +209,9 @@ impl<V: Vector> Stepper<V> for World<V> {
     }
     fn world(&mut self) -> Option<&World<V>> {
         Some(self)
+    }
+    fn observe(&mut self) -> Option<Observables> {
+        Some(World::observe(self))
     }
     fn stop_requested(&mut self) -> bool {
         stop_requested()
@@ -222,6 +238,8 @@ pub struct Settings {
 pub struct Outputs {
     pub checkpoint: Option<(PathBuf, u64)>,
     pub trajectory: Option<(PathBuf, u64)>,
+    /// `--observe FILE --every K`.
+    pub observe: Option<(PathBuf, u64)>,
     pub scene_toml: String,
     pub origin: String,
     pub settings: Settings,
@@ -236,10 +254,22 @@ impl Outputs {
                 return Err(Failure::input("--checkpoint-every: must be at least 1"));
             }
         }
-        if let Some((path, every)) = &self.trajectory {
-            check_output_path("--trajectory", path)?;
-            if *every == 0 {
-                return Err(Failure::input("--every: must be at least 1"));
+        for (flag, output) in [
+            ("--trajectory", &self.trajectory),
+            ("--observe", &self.observe),
+        ] {
+            if let Some((path, every)) = output {
+                check_output_path(flag, path)?;
+                if *every == 0 {
+                    return Err(Failure::input("--every: must be at least 1"));
+                }
+            }
+        }
+        if let (Some((trajectory, _)), Some((observe, _))) = (&self.trajectory, &self.observe) {
+            if trajectory == observe {
+                return Err(Failure::input(
+                    "--observe: the same file as --trajectory; give each its own",
+                ));
             }
         }
         Ok(())
@@ -352,6 +382,7 @@ pub fn save_checkpoint<V: Vector>(
         pair_impulses: Vec::new(),
         plane_impulses: Vec::new(),
         rest: Vec::new(),
+        tally: world.tally(),
     };
     let impulses = world.contact_impulses();
     (cp.pair_impulses, cp.plane_impulses, cp.rest) =
@@ -381,6 +412,23 @@ pub fn drive<V: Vector, S: Stepper<V>>(
             Some(world) => Some((Trajectory::open(path, world)?, *every, path.clone())),
             None => None,
         },
+    };
+    let mut observations = match &outputs.observe {
+        None => None,
+        Some((path, every)) => {
+            let fresh = stepper.steps_taken() == 0;
+            let opened = ObservationFile::open(path, fresh).and_then(|mut file| {
+                if fresh {
+                    if let Some(reading) = stepper.observe() {
+                        file.row(&reading)?;
+                    }
+                }
+                Ok(file)
+            });
+            let file = opened
+                .map_err(|e| Failure::runtime(format!("cannot write {}: {e}", path.display())))?;
+            Some((file, *every))
+        }
     };
     let mut driven = Driven::default();
     let started = Instant::now();
@@ -412,6 +460,19 @@ pub fn drive<V: Vector, S: Stepper<V>>(
                             failure = Some(Failure::runtime(format!(
                                 "cannot write {}: {e}",
                                 path.display()
+                            )));
+                            return;
+                        }
+                    }
+                }
+            }
+            if let Some((file, every)) = &mut observations {
+                if step % *every == 0 {
+                    if let Some(reading) = stepper.observe() {
+                        if let Err(e) = file.row(&reading) {
+                            failure = Some(Failure::runtime(format!(
+                                "cannot write {}: {e}",
+                                file.path().display()
                             )));
                             return;
                         }
@@ -452,6 +513,7 @@ pub fn drive<V: Vector, S: Stepper<V>>(
 
 /// Options of `carom resume`.
 #[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("framed").args(["trajectory", "observe"]).multiple(true)))]
 pub struct ResumeArgs {
     /// A checkpoint written by `carom run --checkpoint`.
     pub checkpoint: PathBuf,
@@ -470,8 +532,11 @@ pub struct ResumeArgs {
     /// Append trajectory frames to this CSV (or VTK series, for a `.pvd`) every `--every` steps.
     #[arg(long, requires = "every")]
     pub trajectory: Option<PathBuf>,
-    /// Steps between trajectory frames.
-    #[arg(long)]
+    /// Append the observables to this CSV every `--every` steps (see `carom run --observe`).
+    #[arg(long, requires = "every")]
+    pub observe: Option<PathBuf>,
+    /// Steps between trajectory frames and observables rows.
+    #[arg(long, requires = "framed")]
     pub every: Option<u64>,
     /// Worker threads.
     #[arg(long)]
@@ -494,6 +559,7 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
     let outputs = Outputs {
         checkpoint: args.checkpoint_to.clone().zip(args.checkpoint_every),
         trajectory: args.trajectory.clone().zip(args.every),
+        observe: args.observe.clone().zip(args.every),
         scene_toml: cp.scene_toml.clone(),
         origin: cp.origin.clone(),
         settings: Settings {
@@ -556,6 +622,7 @@ fn resume_scene<V: Vector>(
                     planes: cp.plane_impulses.clone(),
                     rest: cp.rest.clone(),
                 },
+                cp.tally,
             )
             .map_err(|e| Failure::input(format!("{shown}: {e}")))
     };

@@ -43,6 +43,8 @@ pub struct StepStats {
     pub velocity_iterations: u32,
     /// Collision responses applied.
     pub responses: u64,
+    /// Particle-particle collisions this step (see [`crate::observe`]).
+    pub collisions: u64,
     /// True when the velocity sweeps stopped at the cap with contacts still approaching.
     pub capped: bool,
     /// The deepest particle-particle overlap left at the end of the step, as a fraction of the

@@ -15,6 +15,7 @@
 //! | many simultaneous contacts: impacts, resting impulses, pushing trapped particles apart | [`solver`] |
 //! | resting impulses remembered between steps (warm starting) | [`memory`] |
 //! | islands at rest fall asleep | [`sleep`] |
+//! | temperature, collision count, virial pressure | [`observe`] |
 //! | the fixed order of contacts on threads and processes | [`schedule`] |
 //! | one step, as the lecture's `ParticleSystem_Movement()` | [`step`] |
 //! | the particle system stepped in time under gravity | [`world`] |
@@ -46,6 +47,7 @@ pub mod error;
 pub mod grid;
 pub mod hash;
 pub mod memory;
+pub mod observe;
 pub mod particles;
 pub mod plane;
 pub mod response;
@@ -62,6 +64,7 @@ pub use domain::Aabb;
 pub use error::EngineError;
 pub use glam;
 pub use memory::ContactImpulses;
+pub use observe::{Observables, Tally};
 pub use particles::Particles;
 pub use plane::Plane;
 pub use sleep::SleepSettings;

@@ -141,6 +141,14 @@ pub(crate) struct Row<V> {
     pub met: bool,
     /// Overlap at the end of the step as a fraction of `min_radius` (0 when apart).
     pub overlap: f64,
+    /// `|x_i - x_j|` where the contact was last placed (length).
+    pub distance: f64,
+    /// The normal impulse `j` gave `i` this step, summed over every application (mass x
+    /// length / time; positive pushes apart): the collisional virial's `J_ij` (see
+    /// [`crate::observe`]).
+    pub delivered: f64,
+    /// True once the lecture's response answered an approach of this pair this step.
+    pub impact: bool,
     /// The lecture's detection at the start of the velocity phase, with distinct centres (a
     /// pair with coincident centres has no direction to respond along).
     pub touching: bool,
@@ -166,6 +174,9 @@ impl<V: Vector> Row<V> {
             bounce: 0.0,
             met: false,
             overlap: 0.0,
+            distance: 0.0,
+            delivered: 0.0,
+            impact: false,
             touching: false,
             allowance: 0.0,
         };
@@ -183,6 +194,7 @@ impl<V: Vector> Row<V> {
         let (normal, distance) = contact_normal(xi, xj);
         let [ri, rj] = self.radius;
         self.normal = normal;
+        self.distance = distance;
         self.touching = distance > 0.0 && is_overlapping(xi, xj, ri, rj);
         // Within the slop of touching, a contact may not close in: the position phase opens
         // and closes such hairline gaps every step, and letting them turn into approach speeds
@@ -205,6 +217,24 @@ impl<V: Vector> Row<V> {
     pub fn min_radius(&self) -> f64 {
         self.radius[0].min(self.radius[1])
     }
+
+    /// True when this pair counts as a collision this step: it answered an approach with the
+    /// lecture's response, or it was an impact (see [`integrate`]) that met.
+    #[inline]
+    pub fn collided(&self) -> bool {
+        self.impact || (self.bounce > 0.0 && self.met)
+    }
+}
+
+/// This step's particle-particle collisions and collisional virial `sum J_ij . r_ij` over
+/// `rows` (in row order, so the same rows give the same bits).
+pub(crate) fn tally<V: Vector>(rows: &[Row<V>]) -> (u64, f64) {
+    rows.iter().fold((0, 0.0), |(collisions, virial), row| {
+        (
+            collisions + row.collided() as u64,
+            virial + row.delivered * row.distance,
+        )
+    })
 }
 
 /// One particle-plane candidate's solver data.
@@ -318,12 +348,15 @@ enum Pass {
 /// The lecture's rule for one pair: if it overlaps and approaches, its response with
 /// restitution `k`.
 #[inline]
-fn lecture_pair<V: Vector>(row: &Row<V>, vi: &mut V, vj: &mut V, k: f64) -> bool {
+fn lecture_pair<V: Vector>(row: &mut Row<V>, vi: &mut V, vj: &mut V, k: f64) -> bool {
     let vn = row.normal.dot(*vi - *vj);
     if !(row.touching && approaching(vn, vi.length_squared() + vj.length_squared())) {
         return false;
     }
+    let before = *vi;
     (*vi, *vj) = collide(row.normal, *vi, *vj, row.mass[0], row.mass[1], k);
+    row.delivered += row.mass[0] * row.normal.dot(*vi - before);
+    row.impact = true;
     true
 }
 
@@ -367,6 +400,7 @@ fn accumulate_pair<V: Vector>(
         };
     }
     row.impulse = target;
+    row.delivered += change;
     *vi += row.normal * (change * wi);
     *vj -= row.normal * (change * wj);
     Change::counted_if(dv.abs() > tolerance || newly_met)
@@ -763,6 +797,7 @@ fn warm_start<V: Vector, E: Exchange<V>>(
 ) {
     let push = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
         if row.impulse > 0.0 {
+            row.delivered += row.impulse;
             *vi += row.normal * (row.impulse * row.inverse_mass[0]);
             *vj -= row.normal * (row.impulse * row.inverse_mass[1]);
         }

@@ -27,6 +27,7 @@ use crate::error::EngineError;
 use crate::grid::{bounding_box, Grid, GridLayout};
 use crate::hash::SpatialHash;
 use crate::memory::{self, ContactImpulses, Memory};
+use crate::observe::{self, Observables, Tally};
 use crate::particles::Particles;
 use crate::plane::{check_restitution, Plane};
 use crate::schedule::{Alone, Blocks, PlaneContact};
@@ -154,6 +155,7 @@ pub struct WorldBuilder<V: Vector> {
     particles: Particles<V>,
     resume: Option<(u64, Vec<u32>)>,
     impulses: ContactImpulses,
+    tally: Tally,
     first_error: Option<EngineError>,
 }
 
@@ -166,6 +168,7 @@ impl<V: Vector> Default for WorldBuilder<V> {
             particles: Particles::new(),
             resume: None,
             impulses: ContactImpulses::default(),
+            tally: Tally::default(),
             first_error: None,
         }
     }
@@ -269,6 +272,13 @@ impl<V: Vector> WorldBuilder<V> {
     /// continuation to be bit-identical).
     pub fn impulses(mut self, impulses: ContactImpulses) -> Self {
         self.impulses = impulses;
+        self
+    }
+
+    /// Continues a run's observables: the running sums [`World::tally`] gave at the step the
+    /// run continues from (the collision count and the pressure's interval go on from there).
+    pub fn tally(mut self, tally: Tally) -> Self {
+        self.tally = tally;
         self
     }
 
@@ -377,6 +387,8 @@ impl<V: Vector> WorldBuilder<V> {
             block_size: block_size(n, V::DIM),
             sorter: Sorter::default(),
             steps,
+            tally: self.tally,
+            last_overlap: None,
         })
     }
 }
@@ -469,6 +481,10 @@ pub struct World<V: Vector> {
     pub(crate) block_size: usize,
     sorter: Sorter,
     steps: u64,
+    /// The observables' running sums (see [`crate::observe`]).
+    tally: Tally,
+    /// The last step's [`StepStats::max_overlap`] (`None` before the first step).
+    last_overlap: Option<f64>,
 }
 
 impl<V: Vector> std::fmt::Debug for World<V> {
@@ -773,12 +789,24 @@ impl<V: Vector> Phases for World<V> {
             }
             self.all_asleep = !self.store.is_empty() && self.islands.count == self.store.len();
         }
+        let dt = self.config.dt;
+        // (all asleep: everything is at rest, no collision, no virial, no thermal motion)
+        let (collisions, virial, thermal) = if self.all_asleep {
+            (0, 0.0, 0.0)
+        } else {
+            let (collisions, virial) = solver::tally(&self.rows);
+            let thermal = observe::thermal_sum(&self.store.mass, &self.store.velocity);
+            (collisions, virial, thermal)
+        };
+        self.tally.add_step(dt, collisions, virial, thermal);
+        self.last_overlap = Some(max_overlap);
         StepStats {
             asleep: self.islands.count,
             contacts: self.rows.iter().filter(|r| r.touching).count(),
             plane_contacts: self.plane_rows.iter().filter(|r| r.touching).count(),
             velocity_iterations: solve.iterations,
             responses: solve.responses,
+            collisions,
             capped: solve.capped,
             max_overlap,
         }
@@ -1122,6 +1150,55 @@ impl<V: Vector> World<V> {
     /// Total momentum, summed in id order.
     pub fn momentum(&self) -> V {
         diagnostics::momentum(self.particles())
+    }
+
+    /// The observables now (see [`crate::observe`]), with the pressure over the interval since
+    /// the previous call (or since the start), which this call closes.
+    pub fn observe(&mut self) -> Observables {
+        let max_overlap = match self.last_overlap {
+            Some(overlap) => overlap,
+            None => self.overlap_now(),
+        };
+        let volume = self
+            .config
+            .domain
+            .map(|d| (0..V::DIM).map(|a| d.extent().get(a)).product());
+        let thermal = observe::thermal_sum(&self.store.mass, &self.store.velocity);
+        let reading = Observables {
+            step: self.steps,
+            time: self.time(),
+            kinetic_energy: self.kinetic_energy(),
+            potential_energy: self.potential_energy(),
+            temperature: observe::temperature(self.particles()),
+            collisions: self.tally.collisions,
+            pressure: self.tally.pressure(thermal, V::DIM, volume),
+            max_overlap,
+        };
+        self.tally.restart();
+        reading
+    }
+
+    /// The observables' running sums: what [`WorldBuilder::tally`] needs to continue a run.
+    pub fn tally(&self) -> Tally {
+        self.tally
+    }
+
+    /// The deepest overlap among the particles as they are, by a search of its own (before
+    /// the first step, which measures it as it goes).
+    fn overlap_now(&mut self) -> f64 {
+        let mut pairs = Vec::new();
+        self.broad_phase
+            .find_pairs(&self.store.position, &self.store.radius, &mut pairs);
+        let p = &self.store;
+        pairs
+            .iter()
+            .map(|&(i, j)| {
+                let (i, j) = (i as usize, j as usize);
+                let reach = p.radius[i] + p.radius[j];
+                let distance = (p.position[i] - p.position[j]).length_squared().sqrt();
+                (reach - distance) / p.radius[i].min(p.radius[j])
+            })
+            .fold(0.0, f64::max)
     }
 
     /// Changes the particle-particle restitution.

@@ -19,6 +19,9 @@
 //! u64 + m x (u32, u32, f64)   resting pair impulses (id a < id b, impulse), sorted
 //! u64 + m x (u32, u32, f64)   resting plane impulses (id, plane, impulse), sorted
 //! u64 + r x f64          rest times (time units) by id, r = 0 (none has rested) or n
+//! u64, 3 x f64           the observables' running sums: collisions since the start, then
+//!                        virial, thermal integral and interval since the last reading
+//!                        (version 4 on; version 3 files read as all zero)
 //! u64                    FNV-1a 64 of everything above
 //! ```
 //!
@@ -26,10 +29,14 @@
 //! checksum, so a damaged or foreign file is refused with a clear message and never makes the
 //! reader allocate more than the file holds.
 
+use carom_engine::Tally;
 use std::io::{self, Write};
 
 /// Bumped whenever the layout or the meaning of a field changes.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
+
+/// The oldest version this reader still reads (without the observables' sums).
+const OLDEST_VERSION: u32 = 3;
 
 const MAGIC: &[u8; 8] = b"CAROMCKP";
 
@@ -63,6 +70,8 @@ pub struct Checkpoint {
     /// How long each particle has rested (the solver's sleep timers), by id; empty when none
     /// has.
     pub rest: Vec<f64>,
+    /// The observables' running sums (see `carom_engine::observe`).
+    pub tally: Tally,
 }
 
 struct Hashing<W> {
@@ -127,6 +136,11 @@ impl Checkpoint {
         for t in &self.rest {
             w.write_all(&t.to_le_bytes())?;
         }
+        let t = &self.tally;
+        w.write_all(&t.collisions.to_le_bytes())?;
+        for x in [t.virial, t.thermal, t.interval] {
+            w.write_all(&x.to_le_bytes())?;
+        }
         let hash = w.hash;
         out.write_all(&hash.to_le_bytes())
     }
@@ -143,7 +157,7 @@ impl Checkpoint {
         let stored = u64::from_le_bytes(tail.try_into().expect("8 bytes"));
         let mut r = Reader { bytes: body, at: 8 };
         let version = r.u32()?;
-        if version != FORMAT_VERSION {
+        if !(OLDEST_VERSION..=FORMAT_VERSION).contains(&version) {
             return Err(format!(
                 "checkpoint format version {version}, but this carom reads version {FORMAT_VERSION}; \
                  resume it with the carom that wrote it"
@@ -193,6 +207,16 @@ impl Checkpoint {
             ));
         }
         let rest = (0..count).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
+        let tally = if version >= 4 {
+            Tally {
+                collisions: r.u64()?,
+                virial: r.f64()?,
+                thermal: r.f64()?,
+                interval: r.f64()?,
+            }
+        } else {
+            Tally::default()
+        };
         if r.left() != 0 {
             return Err(format!("damaged checkpoint: {} bytes left over", r.left()));
         }
@@ -210,6 +234,7 @@ impl Checkpoint {
             pair_impulses,
             plane_impulses,
             rest,
+            tally,
         })
     }
 }
@@ -275,6 +300,12 @@ mod tests {
             pair_impulses: vec![(0, 1, 0.75)],
             plane_impulses: vec![(1, 3, 0.125)],
             rest: vec![0.5, 0.0],
+            tally: Tally {
+                collisions: 12,
+                virial: 0.25,
+                thermal: 3.5,
+                interval: 0.125,
+            },
         }
     }
 
@@ -285,6 +316,22 @@ mod tests {
         let back = Checkpoint::read_from(&bytes).unwrap();
         assert_eq!(back, sample());
         assert_eq!(back.velocities[3].to_bits(), (-0.0f64).to_bits());
+    }
+
+    #[test]
+    fn version_3_files_still_read_with_the_observables_at_zero() {
+        let old = Checkpoint {
+            tally: Tally::default(),
+            ..sample()
+        };
+        let mut bytes = Vec::new();
+        old.write_to(&mut bytes).unwrap();
+        // a version 3 file: no observables' sums (32 bytes) before the checksum
+        let mut body = bytes[..bytes.len() - 8 - 32].to_vec();
+        body[8..12].copy_from_slice(&3u32.to_le_bytes());
+        let hash = fnv(FNV_OFFSET, &body);
+        body.extend_from_slice(&hash.to_le_bytes());
+        assert_eq!(Checkpoint::read_from(&body).unwrap(), old);
     }
 
     #[test]

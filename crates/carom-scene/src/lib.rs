@@ -19,10 +19,10 @@ use carom_engine::grid::MAX_CELLS;
 use carom_engine::world::{
     DEFAULT_POSITION_ITERATIONS, DEFAULT_SUBSTEPS, DEFAULT_VELOCITY_ITERATIONS,
 };
-use carom_engine::ContactImpulses;
 use carom_engine::{
     Aabb, BroadPhaseKind, EngineError, Particles, Plane, Vector, World, WorldConfig,
 };
+use carom_engine::{ContactImpulses, Tally};
 use raw::{RawBroadPhaseKind, RawScene};
 use std::path::Path;
 
@@ -63,18 +63,21 @@ impl<V: Vector> Scene<V> {
     }
 
     /// Builds the world as a continuation: `steps_taken` steps already done, particles in
-    /// `storage_order`, the solver remembering `impulses` (see
-    /// [`carom_engine::WorldBuilder::resume`] and [`carom_engine::WorldBuilder::impulses`]).
+    /// `storage_order`, the solver remembering `impulses` and the observables going on from
+    /// `tally` (see [`carom_engine::WorldBuilder::resume`],
+    /// [`carom_engine::WorldBuilder::impulses`] and [`carom_engine::WorldBuilder::tally`]).
     pub fn into_resumed_world(
         mut self,
         steps_taken: u64,
         storage_order: Vec<u32>,
         impulses: ContactImpulses,
+        tally: Tally,
     ) -> Result<World<V>, EngineError> {
         let particles = std::mem::take(&mut self.particles);
         self.builder(particles)
             .resume(steps_taken, storage_order)
             .impulses(impulses)
+            .tally(tally)
             .build()
     }
 

@@ -133,6 +133,11 @@ impl<V: Vector, T: Transport + Send> Stepper<V> for Split<V, T> {
         (self.transport.rank() == 0).then_some(&self.world)
     }
 
+    fn observe(&mut self) -> Option<carom_engine::Observables> {
+        // (refused before the run starts: the collisional virial is summed per rank)
+        None
+    }
+
     fn stop_requested(&mut self) -> bool {
         // Signals reach ranks at different moments: stop when any rank saw one, all at the
         // same step.

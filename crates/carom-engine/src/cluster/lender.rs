@@ -46,7 +46,9 @@ pub(super) fn write_row<V: Vector>(w: &mut Writer, row: &Row<V>) {
         .f64(row.bounce)
         .f64(row.overlap)
         .f64(row.allowance)
-        .u32(row.touching as u32 | (row.met as u32) << 1);
+        .f64(row.distance)
+        .f64(row.delivered)
+        .u32(row.touching as u32 | (row.met as u32) << 1 | (row.impact as u32) << 2);
 }
 
 /// Decodes a solver row.
@@ -62,8 +64,11 @@ pub(super) fn read_row<V: Vector>(r: &mut Reader) -> Row<V> {
         bounce: r.f64(),
         overlap: r.f64(),
         allowance: r.f64(),
+        distance: r.f64(),
+        delivered: r.f64(),
         touching: false,
         met: false,
+        impact: false,
     }
     .flags(r.u32())
 }
@@ -72,6 +77,7 @@ impl<V> Row<V> {
     fn flags(mut self, bits: u32) -> Self {
         self.touching = bits & 1 != 0;
         self.met = bits & 2 != 0;
+        self.impact = bits & 4 != 0;
         self
     }
 }

@@ -994,15 +994,17 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
         }
         let touching = s.rows.iter().filter(|r| r.touching).count() as u64;
         let on_planes = s.plane_rows.iter().filter(|r| r.touching).count() as u64;
+        let (collisions, _) = crate::solver::tally(&s.rows);
         let counts = self
             .link
-            .sum(&[touching, on_planes, s.islands.count as u64]);
+            .sum(&[touching, on_planes, s.islands.count as u64, collisions]);
         StepStats {
             asleep: counts[2] as usize,
             contacts: counts[0] as usize,
             plane_contacts: counts[1] as usize,
             velocity_iterations: solve.iterations,
             responses: solve.responses,
+            collisions: counts[3],
             capped: solve.capped,
             max_overlap,
         }

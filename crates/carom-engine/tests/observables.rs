@@ -1,0 +1,118 @@
+//! The observables of `carom_engine::observe` seen through `World`: the collision count, the
+//! virial, the temperature and the overlap, on cases worked out by hand, and the pressure of
+//! a dilute elastic gas against its equation of state.
+
+mod support;
+use support::Lcg;
+
+use carom_engine::glam::DVec2;
+use carom_engine::{Aabb, World};
+
+/// Two unit discs of mass 1, centres `gap` apart on the x axis, meeting head-on at speed 1
+/// each, in a 20 x 20 box.
+fn head_on(gap: f64, k: f64) -> World<DVec2> {
+    World::builder()
+        .dt(0.01)
+        .restitution(k)
+        .domain(Aabb::new(DVec2::splat(-10.0), DVec2::splat(10.0)).unwrap())
+        .particle(DVec2::new(-gap / 2.0, 0.0), DVec2::X, 1.0, 1.0)
+        .particle(DVec2::new(gap / 2.0, 0.0), -DVec2::X, 1.0, 1.0)
+        .build()
+        .unwrap()
+}
+
+#[test]
+fn a_head_on_collision_counts_once_and_its_virial_is_the_impulse_times_the_distance() {
+    for k in [0.0, 0.5, 1.0] {
+        let mut world = head_on(1.99, k);
+        let stats = world.step();
+        assert_eq!(stats.collisions, 1, "k = {k}");
+        let tally = world.tally();
+        assert_eq!(tally.collisions, 1);
+        // j gives i (on the left) the impulse m (v_i' - v_i) = -(1 + k) along x, and
+        // r_ij = x_i - x_j = (-1.99, 0): J . r = 1.99 (1 + k)
+        let expected = 1.99 * (1.0 + k);
+        assert!(
+            (tally.virial - expected).abs() < 1e-12,
+            "k = {k}: {} against {expected}",
+            tally.virial
+        );
+        // once apart, nothing more is counted
+        world.step();
+        assert_eq!(world.tally().collisions, 1);
+    }
+}
+
+#[test]
+fn a_reading_reports_the_state_and_restarts_the_pressure_interval() {
+    let mut world = head_on(1.9, 1.0);
+    // before any step the overlap is measured by a search of its own: 0.1 of r = 1
+    let start = world.observe();
+    assert_eq!((start.step, start.collisions), (0, 0));
+    assert!((start.max_overlap - 0.1).abs() < 1e-12);
+    // T = sum m |v - u|^2 / (d N) = 2 / 4
+    assert_eq!(start.temperature, 0.5);
+    assert_eq!(start.kinetic_energy, 1.0);
+    // no interval yet: the kinetic part alone, sum m |v - u|^2 / (d V) = 2 / (2 * 400)
+    assert_eq!(start.pressure, 2.0 / 800.0);
+    let stats = world.step();
+    let reading = world.observe();
+    assert_eq!((reading.step, reading.collisions), (1, 1));
+    assert_eq!(reading.max_overlap, stats.max_overlap);
+    let tally_after = world.tally();
+    assert_eq!((tally_after.virial, tally_after.interval), (0.0, 0.0));
+    assert_eq!(tally_after.collisions, 1);
+    // the interval was one step: P = (2 + J . r / dt) / (d V), J . r = 2 x 1.9
+    let expected = (2.0 + 2.0 * 1.9 / 0.01) / 800.0;
+    assert!((reading.pressure - expected).abs() < 1e-9 * expected);
+}
+
+/// Henderson's (1975) equation of state for hard disks: `Z = (1 + eta^2 / 8) / (1 - eta)^2`.
+fn henderson(eta: f64) -> f64 {
+    (1.0 + eta * eta / 8.0) / (1.0 - eta).powi(2)
+}
+
+#[test]
+fn a_dilute_elastic_gas_in_a_walled_box_has_the_pressure_of_its_equation_of_state() {
+    // 400 discs r = 0.5 at area fraction 0.1, k = 1, no gravity: Z = P V / (N T).
+    let (n, r, eta) = (400usize, 0.5, 0.1);
+    let area = n as f64 * std::f64::consts::PI * r * r / eta;
+    let half = area.sqrt() / 2.0;
+    let per_axis = (n as f64).sqrt().ceil() as usize;
+    let spacing = 2.0 * half / per_axis as f64;
+    let mut rng = Lcg::new(11);
+    let mut builder = World::builder()
+        .dt(0.002)
+        .restitution(1.0)
+        .domain(Aabb::new(DVec2::splat(-half), DVec2::splat(half)).unwrap())
+        .walls(1.0);
+    for cell in 0..n {
+        let (i, j) = (cell % per_axis, cell / per_axis);
+        let x = DVec2::new(
+            -half + (i as f64 + 0.5) * spacing,
+            -half + (j as f64 + 0.5) * spacing,
+        );
+        let v: DVec2 = rng.vector(-1.0, 1.0);
+        builder = builder.particle(x, v, r, 1.0);
+    }
+    let mut world = builder.build().unwrap();
+    // relax, then average over a long window (each reading is one window)
+    for _ in 0..2000 {
+        world.step();
+    }
+    world.observe();
+    for _ in 0..6000 {
+        world.step();
+    }
+    let reading = world.observe();
+    let z = reading.pressure * area / (n as f64 * reading.temperature);
+    // The virial theorem with the walls' virial (-d P_wall A_inner, A_inner the area the
+    // centres reach) makes P V = P_wall A_inner; the gas inside is at the packing fraction of
+    // N discs in A_inner.
+    let inner = (2.0 * half - 2.0 * r).powi(2);
+    let expected = henderson(eta * area / inner);
+    assert!(
+        (z / expected - 1.0).abs() < 0.03,
+        "Z = {z}, Henderson {expected}"
+    );
+}
