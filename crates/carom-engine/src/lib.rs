@@ -16,6 +16,7 @@
 //! | resting impulses remembered between steps (warm starting) | [`memory`] |
 //! | islands at rest fall asleep | [`sleep`] |
 //! | temperature, collision count, virial pressure | [`observe`] |
+//! | what kinetic theory says they should be (Enskog, Henderson, Carnahan-Starling, Haff) | [`theory`] |
 //! | the fixed order of contacts on threads and processes | [`schedule`] |
 //! | one step, as the lecture's `ParticleSystem_Movement()` | [`step`] |
 //! | the particle system stepped in time under gravity | [`world`] |
@@ -55,6 +56,7 @@ pub mod schedule;
 pub mod sleep;
 pub mod solver;
 pub mod step;
+pub mod theory;
 pub mod vector;
 pub mod world;
 

@@ -22,6 +22,9 @@
 #![warn(missing_docs)]
 
 mod canvas;
+mod compare;
+
+pub use compare::{comparison_plot_png, save_comparison_plot, Comparison};
 
 use canvas::{Canvas, Marker, Shape};
 use plotters::prelude::*;
