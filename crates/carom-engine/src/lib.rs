@@ -17,6 +17,7 @@
 //! | islands at rest fall asleep | [`sleep`] |
 //! | the fixed order of contacts on threads and processes | [`schedule`] |
 //! | one step, as the lecture's `ParticleSystem_Movement()` | [`step`] |
+//! | periodic boundaries: wrapping, the minimum image | [`periodic`] |
 //! | the particle system stepped in time under gravity | [`world`] |
 //! | the same world split over processes (domain decomposition, ghosts) | [`cluster`] |
 //!
@@ -47,6 +48,7 @@ pub mod grid;
 pub mod hash;
 pub mod memory;
 pub mod particles;
+pub mod periodic;
 pub mod plane;
 pub mod response;
 pub mod schedule;
@@ -63,6 +65,7 @@ pub use error::EngineError;
 pub use glam;
 pub use memory::ContactImpulses;
 pub use particles::Particles;
+pub use periodic::Periodic;
 pub use plane::Plane;
 pub use sleep::SleepSettings;
 pub use solver::SolverSettings;

@@ -64,6 +64,8 @@ pub(super) fn read_row<V: Vector>(r: &mut Reader) -> Row<V> {
         allowance: r.f64(),
         touching: false,
         met: false,
+        // (split runs refuse periodic axes, so no row of theirs is shifted)
+        shift: V::ZERO,
     }
     .flags(r.u32())
 }
