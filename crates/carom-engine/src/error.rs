@@ -59,6 +59,44 @@ pub enum EngineError {
          values > 0"
     )]
     ContactImpulses,
+    /// Periodic flags whose count is not the number of dimensions.
+    #[error("periodic needs one flag per axis ({dimensions}), got {got}")]
+    PeriodicAxes {
+        /// Flags given.
+        got: usize,
+        /// Axes of the world.
+        dimensions: usize,
+    },
+    /// Periodic axes need a domain to glue.
+    #[error("periodic axes need a domain (its faces are what is glued together)")]
+    PeriodicWithoutDomain,
+    /// A periodic axis too short for the largest particle (see
+    /// [`crate::periodic::shortest_period`]).
+    #[error(
+        "periodic axis {axis} is {length} long, but must be longer than {shortest} (4 (2 + \
+         slop) times the largest radius: twice the farthest a pair reaches in a step, so that \
+         only one image of a particle can touch another)"
+    )]
+    PeriodTooShort {
+        /// The axis (0 = x).
+        axis: usize,
+        /// Its length.
+        length: f64,
+        /// The shortest allowed.
+        shortest: f64,
+    },
+    /// The unbounded hash has no domain to wrap around.
+    #[error(
+        "the unbounded hash broad phase does not support periodic axes: use the grid (or \
+         brute force)"
+    )]
+    PeriodicHash,
+    /// Split runs do not support periodic axes.
+    #[error(
+        "a run split over ranks does not support periodic axes: run it in one process \
+         (without --ranks or mpirun)"
+    )]
+    PeriodicSplit,
     /// More particles than ids (u32) can name.
     #[error("too many particles: {0} (at most {max})", max = u32::MAX)]
     TooManyParticles(usize),

@@ -21,6 +21,7 @@ use crate::broadphase::{collect_pairs, BroadPhase, Pair, PARALLEL_MIN};
 use crate::domain::Aabb;
 use crate::error::EngineError;
 use crate::hash::SpatialHash;
+use crate::periodic::Periodic;
 use crate::response::is_overlapping;
 use crate::vector::Vector;
 use rayon::prelude::*;
@@ -40,6 +41,8 @@ pub struct Grid<V> {
     buffers: Vec<Vec<Pair>>,
     overflow: SpatialHash,
     escaped: bool,
+    /// Periodic axes: neighbour cells wrap around them, pairs are tested at the minimum image.
+    periodic: Option<Periodic>,
 }
 
 /// How many particles may sit outside the domain (or 1/64 of them, if more) before a step's
@@ -190,7 +193,16 @@ impl<V: Vector> Grid<V> {
             buffers: Vec::new(),
             overflow: SpatialHash::new(),
             escaped: false,
+            periodic: None,
         })
+    }
+
+    /// Searches across `periodic`'s seams (see [`crate::periodic`]); needs a domain, the box
+    /// that wraps. Any cell count works: a search that would wrap onto cells it already
+    /// covers takes the whole row of cells instead, so no cell is visited twice.
+    pub fn with_periodic(mut self, periodic: Option<Periodic>) -> Self {
+        self.periodic = periodic;
+        self
     }
 
     /// The layout used by the last [`BroadPhase::find_pairs`] call.
@@ -301,8 +313,99 @@ pub(crate) fn bounding_box<V: Vector>(positions: &[V]) -> Aabb<V> {
     }
 }
 
+/// Up to two runs of cells `(first, last)` (inclusive) on one axis, and how many there are.
+type Runs = ([(usize, usize); 2], usize);
+
+/// Every cell of `runs`, in order.
+#[inline]
+fn each_cell(runs: &Runs) -> impl Iterator<Item = usize> + '_ {
+    runs.0[..runs.1].iter().flat_map(|&(a, b)| a..=b)
+}
+
+impl GridLayout {
+    /// The cells on periodic `axis` (period `length`) that can hold a particle within `reach`
+    /// of `coordinate`, wrapped around the axis: one run, two when the search crosses the
+    /// seam, or the whole axis when it would reach round onto itself.
+    #[inline]
+    fn periodic_runs(&self, axis: usize, coordinate: f64, reach: f64, length: f64) -> Runs {
+        let cells = self.cells[axis] as i64;
+        // Widened past the rounding of the image too (`x_j + L` is rounded on the scale of
+        // the box, not of `x_j`).
+        let scale = coordinate.abs() + self.origin[axis].abs() + length;
+        let widened = widened_reach(scale, reach);
+        let cell = |x: f64| ((x - self.origin[axis]) * self.inverse_cell_size[axis]).floor() as i64;
+        let (lo, hi) = (cell(coordinate - widened), cell(coordinate + widened));
+        if hi.saturating_sub(lo) + 1 >= cells {
+            return ([(0, cells as usize - 1), (0, 0)], 1);
+        }
+        let (first, last) = (lo.rem_euclid(cells) as usize, hi.rem_euclid(cells) as usize);
+        if first <= last {
+            ([(first, last), (0, 0)], 1)
+        } else {
+            ([(first, cells as usize - 1), (0, last)], 2)
+        }
+    }
+}
+
+impl<V: Vector> Grid<V> {
+    /// [`BroadPhase::find_pairs`] with periodic axes: the positions lie in the domain on those
+    /// axes (the world wraps them), so no search goes to the hash; other axes clamp as ever.
+    fn find_periodic_pairs(
+        &mut self,
+        periodic: &Periodic,
+        positions: &[V],
+        radii: &[f64],
+        pairs: &mut Vec<Pair>,
+    ) {
+        self.escaped = false;
+        let max_radius = radii.iter().copied().fold(0.0, f64::max);
+        self.plan_layout(positions, max_radius);
+        self.build_buckets(positions);
+        let layout = self.layout;
+        let (cell_start, ids) = (&self.cell_start, &self.ids);
+        collect_pairs(positions.len(), &mut self.buffers, pairs, |i, out| {
+            let (pi, ri) = (positions[i], radii[i]);
+            let mut runs: [Runs; 3] = [([(0, 0); 2], 1); 3];
+            for (a, r) in runs.iter_mut().enumerate().take(V::DIM) {
+                let reach = ri + max_radius;
+                *r = if periodic.is_periodic(a) {
+                    layout.periodic_runs(a, pi.get(a), reach, periodic.length(a))
+                } else {
+                    let (lo, hi) = layout.axis_range(a, pi.get(a), reach);
+                    ([(lo, hi), (0, 0)], 1)
+                };
+            }
+            for z in each_cell(&runs[2]) {
+                for y in each_cell(&runs[1]) {
+                    let row = (z * layout.cells[1] + y) * layout.cells[0];
+                    for &(lo, hi) in &runs[0].0[..runs[0].1] {
+                        let start = cell_start[row + lo] as usize;
+                        let end = cell_start[row + hi + 1] as usize;
+                        for &j in &ids[start..end] {
+                            let j = j as usize;
+                            if j > i
+                                && is_overlapping(
+                                    pi,
+                                    periodic.image(pi, positions[j]),
+                                    ri,
+                                    radii[j],
+                                )
+                            {
+                                out.push((i as u32, j as u32));
+                            }
+                        }
+                    }
+                }
+            }
+        });
+    }
+}
+
 impl<V: Vector> BroadPhase<V> for Grid<V> {
     fn find_pairs(&mut self, positions: &[V], radii: &[f64], pairs: &mut Vec<Pair>) {
+        if let Some(periodic) = self.periodic {
+            return self.find_periodic_pairs(&periodic, positions, radii, pairs);
+        }
         // Particles that left the domain all land in its border cells; if many did, those
         // cells would turn the search quadratic. The unbounded hash finds exactly the same
         // pairs, so use it for such steps instead.

@@ -19,6 +19,7 @@
 //! | what kinetic theory says they should be (Enskog, Henderson, Carnahan-Starling, Haff) | [`theory`] |
 //! | the fixed order of contacts on threads and processes | [`schedule`] |
 //! | one step, as the lecture's `ParticleSystem_Movement()` | [`step`] |
+//! | periodic boundaries: wrapping, the minimum image | [`periodic`] |
 //! | the particle system stepped in time under gravity | [`world`] |
 //! | the same world split over processes (domain decomposition, ghosts) | [`cluster`] |
 //!
@@ -50,6 +51,7 @@ pub mod hash;
 pub mod memory;
 pub mod observe;
 pub mod particles;
+pub mod periodic;
 pub mod plane;
 pub mod response;
 pub mod schedule;
@@ -68,6 +70,7 @@ pub use glam;
 pub use memory::ContactImpulses;
 pub use observe::{Observables, Tally};
 pub use particles::Particles;
+pub use periodic::Periodic;
 pub use plane::Plane;
 pub use sleep::SleepSettings;
 pub use solver::SolverSettings;

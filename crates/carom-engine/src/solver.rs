@@ -29,6 +29,7 @@
 //! The order of every rule application is fixed by [`crate::schedule`].
 
 use crate::broadphase::Pair;
+use crate::periodic::apply_shift;
 use crate::plane::Plane;
 use crate::response::{collide, contact_normal, is_overlapping, split_normal_tangent};
 use crate::schedule::{Blocks, Change, Exchange, PlaneContact, Visit};
@@ -157,12 +158,23 @@ pub(crate) struct Row<V> {
     /// stays in the solver as a *speculative* contact (as in Box2D), so the position phase
     /// opening a contact by a rounding error does not drop a pile's support for a step.
     pub allowance: f64,
+    /// What `j` is seen through across periodic seams: every rule that reads positions uses
+    /// `x_j + shift` (see [`crate::periodic`]). Whole periods per axis, fixed when the pair is
+    /// found; zero without periodic axes (and then `x_j` is used as it is, bit for bit).
+    pub shift: V,
 }
 
 impl<V: Vector> Row<V> {
     /// The row of particles at `x`, radius `r` and mass `m`, for a step of `dt`.
     #[inline]
     pub fn new(xi: V, xj: V, ri: f64, rj: f64, mi: f64, mj: f64, dt: f64) -> Self {
+        Self::across(xi, xj, V::ZERO, ri, rj, mi, mj, dt)
+    }
+
+    /// [`Row::new`] for a pair seen through `x_j + shift` (see [`Row::shift`]).
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub fn across(xi: V, xj: V, shift: V, ri: f64, rj: f64, mi: f64, mj: f64, dt: f64) -> Self {
         let mut row = Self {
             normal: V::ZERO,
             mass: [mi, mj],
@@ -179,9 +191,16 @@ impl<V: Vector> Row<V> {
             impact: false,
             touching: false,
             allowance: 0.0,
+            shift,
         };
         row.place(xi, xj, dt);
         row
+    }
+
+    /// Where this row sees `j` from `i`: `x_j + shift`, or `x_j` itself when there is no shift.
+    #[inline]
+    pub fn image(&self, xj: V) -> V {
+        apply_shift(xj, self.shift)
     }
 
     /// Normal, detection and allowance for particles at `xi`, `xj` over a (sub)step `dt`. A
@@ -191,6 +210,7 @@ impl<V: Vector> Row<V> {
         if self.allowance == f64::INFINITY {
             return;
         }
+        let xj = self.image(xj);
         let (normal, distance) = contact_normal(xi, xj);
         let [ri, rj] = self.radius;
         self.normal = normal;
@@ -818,7 +838,8 @@ fn warm_start<V: Vector, E: Exchange<V>>(
 /// Moves one overlapping pair apart down to `depth` times the smaller radius.
 #[inline]
 fn separate_pair<V: Vector>(row: &Row<V>, xi: &mut V, xj: &mut V, depth: f64) -> Change {
-    let (normal, distance) = contact_normal(*xi, *xj);
+    // (moving `x_j` moves its image by as much)
+    let (normal, distance) = contact_normal(*xi, row.image(*xj));
     let overlap = row.reach() - distance - depth * row.min_radius();
     if overlap <= 0.0 || rounding(overlap, xi.length_squared() + xj.length_squared()) {
         return Change::Nothing;
@@ -897,7 +918,7 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
             out_of_all_planes(xi, row.radius[0]);
             out_of_all_planes(xj, row.radius[1]);
         }
-        let (_, distance) = contact_normal(*xi, *xj);
+        let (_, distance) = contact_normal(*xi, row.image(*xj));
         row.overlap = ((row.reach() - distance) / row.min_radius()).max(0.0);
         Change::Nothing
     };

@@ -29,6 +29,7 @@ use crate::hash::SpatialHash;
 use crate::memory::{self, ContactImpulses, Memory};
 use crate::observe::{self, Observables, Tally};
 use crate::particles::Particles;
+use crate::periodic::{self, Periodic};
 use crate::plane::{check_restitution, Plane};
 use crate::schedule::{Alone, Blocks, PlaneContact};
 use crate::sleep::{self, Islands, SleepSettings, DEFAULT_SLEEP_TIME, SLEEP_SPEED_FRACTION};
@@ -69,6 +70,10 @@ pub struct WorldConfig<V> {
     pub substeps: u32,
     /// The simulation space; the grid covers it. `None`: the grid fits the particles.
     pub domain: Option<Aabb<V>>,
+    /// Per axis (the first `DIM` entries), whether the domain wraps around on it (see
+    /// [`crate::periodic`]): positions stay in `[min, max)` there, contacts reach across the
+    /// seam, and walls close only the other axes. Needs a domain.
+    pub periodic: [bool; 3],
     /// Which broad phase finds contacts.
     pub broad_phase: BroadPhaseKind,
     /// Grid cells per axis; `None` derives them from the largest radius.
@@ -92,6 +97,13 @@ pub struct WorldConfig<V> {
 }
 
 impl<V: Vector> WorldConfig<V> {
+    /// The periodic axes of the domain, or `None` when none is (or there is no domain).
+    pub fn periodic(&self) -> Option<Periodic> {
+        self.domain
+            .as_ref()
+            .and_then(|d| Periodic::new(d, &self.periodic))
+    }
+
     /// [`WorldConfig::resting_speed`], or its default `2 |g| dt`.
     pub fn effective_resting_speed(&self) -> f64 {
         self.resting_speed
@@ -136,6 +148,7 @@ impl<V: Vector> Default for WorldConfig<V> {
             position_iterations: DEFAULT_POSITION_ITERATIONS,
             substeps: DEFAULT_SUBSTEPS,
             domain: None,
+            periodic: [false; 3],
             broad_phase: BroadPhaseKind::Grid,
             grid_cells: None,
             resting_speed: None,
@@ -151,6 +164,7 @@ impl<V: Vector> Default for WorldConfig<V> {
 pub struct WorldBuilder<V: Vector> {
     config: WorldConfig<V>,
     walls: Option<f64>,
+    periodic: Option<Vec<bool>>,
     planes: Vec<Plane<V>>,
     particles: Particles<V>,
     resume: Option<(u64, Vec<u32>)>,
@@ -164,6 +178,7 @@ impl<V: Vector> Default for WorldBuilder<V> {
         Self {
             config: WorldConfig::default(),
             walls: None,
+            periodic: None,
             planes: Vec::new(),
             particles: Particles::new(),
             resume: None,
@@ -201,9 +216,15 @@ impl<V: Vector> WorldBuilder<V> {
         self.config.domain = Some(domain);
         self
     }
-    /// Close the domain with walls of restitution `k`.
+    /// Close the domain with walls of restitution `k` (on its axes that are not periodic).
     pub fn walls(mut self, restitution: f64) -> Self {
         self.walls = Some(restitution);
+        self
+    }
+    /// Which axes of the domain are periodic, one flag per axis (see
+    /// [`WorldConfig::periodic`]).
+    pub fn periodic(mut self, axes: &[bool]) -> Self {
+        self.periodic = Some(axes.to_vec());
         self
     }
     /// Broad phase.
@@ -287,7 +308,17 @@ impl<V: Vector> WorldBuilder<V> {
         if let Some(e) = self.first_error {
             return Err(e);
         }
-        let config = self.config;
+        let mut config = self.config;
+        if let Some(axes) = &self.periodic {
+            if axes.len() != V::DIM {
+                return Err(EngineError::PeriodicAxes {
+                    got: axes.len(),
+                    dimensions: V::DIM,
+                });
+            }
+            config.periodic = [false; 3];
+            config.periodic[..V::DIM].copy_from_slice(axes);
+        }
         check_dt(config.dt)?;
         if !config.gravity.is_finite_vector() {
             return Err(EngineError::NonFinite("gravity"));
@@ -309,13 +340,24 @@ impl<V: Vector> WorldBuilder<V> {
                 return Err(EngineError::NonFinite("resting speed (must be >= 0)"));
             }
         }
+        let periodic = check_periodic(&config, &self.particles)?;
         let mut planes = self.planes;
         if let Some(k) = self.walls {
             let domain = config.domain.ok_or(EngineError::EmptyDomain)?;
-            planes.extend(domain.walls(k)?);
+            // (2 walls per axis, in axis order; a periodic axis has none)
+            let walls = domain.walls(k)?.into_iter().enumerate();
+            planes.extend(
+                walls
+                    .filter(|(w, _)| !config.periodic[w / 2])
+                    .map(|(_, p)| p),
+            );
         }
         let broad_phase = new_broad_phase(&config)?;
-        let n = self.particles.len();
+        let mut particles = self.particles;
+        if let Some(p) = &periodic {
+            periodic::wrap_all(p, false, &mut particles.position);
+        }
+        let n = particles.len();
         let (steps, ids) = match self.resume {
             None => (0, (0..n as u32).collect()),
             Some((steps, order)) => (steps, order),
@@ -346,12 +388,12 @@ impl<V: Vector> WorldBuilder<V> {
             .enumerate()
             .all(|(slot, &id)| slot == id as usize)
         {
-            self.particles // already in storage order: move, do not copy
+            particles // already in storage order: move, do not copy
         } else {
             let mut store = Particles::new();
             for &id in &ids {
                 let id = id as usize;
-                let p = &self.particles;
+                let p = &particles;
                 store.position.push(p.position[id]);
                 store.velocity.push(p.velocity[id]);
                 store.radius.push(p.radius[id]);
@@ -361,6 +403,7 @@ impl<V: Vector> WorldBuilder<V> {
         };
         Ok(World {
             config,
+            periodic,
             planes,
             store,
             ids,
@@ -397,11 +440,42 @@ impl<V: Vector> WorldBuilder<V> {
 pub(crate) fn new_broad_phase<V: Vector>(
     config: &WorldConfig<V>,
 ) -> Result<Box<dyn BroadPhase<V>>, EngineError> {
+    let periodic = config.periodic();
     Ok(match config.broad_phase {
-        BroadPhaseKind::Brute => Box::new(BruteForce::new()),
-        BroadPhaseKind::Grid => Box::new(Grid::new(config.domain, config.grid_cells.as_deref())?),
+        BroadPhaseKind::Brute => Box::new(BruteForce::new().with_periodic(periodic)),
+        BroadPhaseKind::Grid => Box::new(
+            Grid::new(config.domain, config.grid_cells.as_deref())?.with_periodic(periodic),
+        ),
+        BroadPhaseKind::Hash if periodic.is_some() => return Err(EngineError::PeriodicHash),
         BroadPhaseKind::Hash => Box::new(SpatialHash::new()),
     })
+}
+
+/// The periodic axes `config` asks for, checked against the domain, the broad phase and the
+/// largest particle of `particles` (see [`periodic::shortest_period`]).
+fn check_periodic<V: Vector>(
+    config: &WorldConfig<V>,
+    particles: &Particles<V>,
+) -> Result<Option<Periodic>, EngineError> {
+    if !config.periodic.iter().any(|&a| a) {
+        return Ok(None);
+    }
+    let domain = config.domain.ok_or(EngineError::PeriodicWithoutDomain)?;
+    let shortest = periodic::shortest_period(particles.max_radius());
+    for axis in (0..V::DIM).filter(|&a| config.periodic[a]) {
+        let length = domain.max.get(axis) - domain.min.get(axis);
+        if length <= shortest {
+            return Err(EngineError::PeriodTooShort {
+                axis,
+                length,
+                shortest,
+            });
+        }
+    }
+    if config.broad_phase == BroadPhaseKind::Hash {
+        return Err(EngineError::PeriodicHash);
+    }
+    Ok(config.periodic())
 }
 
 /// The grid the spatial sort orders `n` particles by: over `bounds` (the domain, or the
@@ -438,6 +512,8 @@ fn check_dt(dt: f64) -> Result<(), EngineError> {
 /// A particle system that can be stepped.
 pub struct World<V: Vector> {
     config: WorldConfig<V>,
+    /// The periodic axes, from the config (`None`: none; then nothing periodic ever runs).
+    periodic: Option<Periodic>,
     planes: Vec<Plane<V>>,
     /// The particles in storage order (sorted along space every few steps).
     pub(crate) store: Particles<V>,
@@ -687,11 +763,14 @@ impl<V: Vector> Phases for World<V> {
             0,
         );
         let p = &self.store;
+        let periodic = self.periodic;
         solver::prepare_rows(&mut self.rows, &self.pairs, parallel, |(i, j)| {
             let (i, j) = (i as usize, j as usize);
-            Row::new(
-                p.position[i],
-                p.position[j],
+            let (xi, xj) = (p.position[i], p.position[j]);
+            Row::across(
+                xi,
+                xj,
+                periodic.map_or(V::ZERO, |q| q.shift(xi, xj)),
                 p.radius[i],
                 p.radius[j],
                 p.mass[i],
@@ -800,6 +879,10 @@ impl<V: Vector> Phases for World<V> {
         };
         self.tally.add_step(dt, collisions, virial, thermal);
         self.last_overlap = Some(max_overlap);
+        // Wrapped last: the rest times above compare where the step started and ended.
+        if let (Some(p), false) = (&self.periodic, self.all_asleep) {
+            periodic::wrap_all(p, self.parallel(), &mut self.store.position);
+        }
         StepStats {
             asleep: self.islands.count,
             contacts: self.rows.iter().filter(|r| r.touching).count(),
@@ -891,7 +974,11 @@ impl<V: Vector> World<V> {
             let (i, j) = (i as usize, j as usize);
             if islands.sleeps(i) {
                 let (ri, rj) = (p.radius[i], p.radius[j]);
-                let distance = (p.position[i] - p.position[j]).length_squared().sqrt();
+                let (xi, mut xj) = (p.position[i], p.position[j]);
+                if let Some(q) = &self.periodic {
+                    xj = q.image(xi, xj);
+                }
+                let distance = (xi - xj).length_squared().sqrt();
                 let overlap = (ri + rj - distance) / ri.min(rj);
                 self.asleep_overlap = self.asleep_overlap.max(overlap);
             }
@@ -1189,13 +1276,17 @@ impl<V: Vector> World<V> {
         let mut pairs = Vec::new();
         self.broad_phase
             .find_pairs(&self.store.position, &self.store.radius, &mut pairs);
-        let p = &self.store;
+        let (p, periodic) = (&self.store, &self.periodic);
         pairs
             .iter()
             .map(|&(i, j)| {
                 let (i, j) = (i as usize, j as usize);
                 let reach = p.radius[i] + p.radius[j];
-                let distance = (p.position[i] - p.position[j]).length_squared().sqrt();
+                let (xi, mut xj) = (p.position[i], p.position[j]);
+                if let Some(periodic) = periodic {
+                    xj = periodic.image(xi, xj);
+                }
+                let distance = (xi - xj).length_squared().sqrt();
                 (reach - distance) / p.radius[i].min(p.radius[j])
             })
             .fold(0.0, f64::max)

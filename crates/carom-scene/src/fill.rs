@@ -3,7 +3,7 @@
 
 use crate::raw::{RawArrangement, RawScene};
 use crate::{Ctx, SceneError};
-use carom_engine::{Aabb, Particles, Vector};
+use carom_engine::{Aabb, Particles, Periodic, Vector};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -18,11 +18,15 @@ const MAX_PACKING: [f64; 2] = [0.9069, 0.7405];
 /// Random placement tries per particle before giving up (on average over the fill).
 const ATTEMPTS_PER_PARTICLE: u64 = 200;
 
+/// On periodic axes (`periodic`, of `domain`) every position is wrapped into the domain, as
+/// the world would wrap it, and no particle is placed overlapping another across a seam.
 pub(crate) fn particles<V: Vector>(
     ctx: &Ctx,
     raw: &RawScene,
     domain: Option<Aabb<V>>,
+    periodic: Option<Periodic>,
 ) -> Result<Particles<V>, SceneError> {
+    let wrap = |x: V| periodic.map_or(x, |p| p.wrap(x));
     let mut total = raw.particles.len() as u64;
     let memory = physical_memory_bytes();
     for (i, f) in raw.fill.iter().enumerate() {
@@ -66,7 +70,7 @@ pub(crate) fn particles<V: Vector>(
     let mut max_radius: f64 = 0.0;
     for (i, p) in raw.particles.iter().enumerate() {
         let f = |k: &str| format!("particles[{i}].{k}");
-        let position = ctx.vector::<V>(&f("position"), &p.position)?;
+        let position = wrap(ctx.vector::<V>(&f("position"), &p.position)?);
         let velocity = match &p.velocity {
             Some(v) => ctx.vector::<V>(&f("velocity"), v)?,
             None => V::ZERO,
@@ -110,6 +114,11 @@ pub(crate) fn particles<V: Vector>(
     }
     let bounds = Aabb { min: lo, max: hi };
     let mut placed = PlacementGrid::new(bounds, max_radius, total as usize);
+    let seams = periodic.zip(domain);
+    let overlaps = |placed: &PlacementGrid, x: V, radius: f64, out: &Particles<V>| match seams {
+        None => placed.overlaps(x, radius, out.positions(), out.radii()),
+        Some((p, d)) => placed.overlaps_across(&p, &d, x, radius, out.positions(), out.radii()),
+    };
     for (id, &x) in out.positions().iter().enumerate() {
         placed.insert(x, id as u32);
     }
@@ -182,8 +191,8 @@ pub(crate) fn particles<V: Vector>(
                     for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
                         *slot = lo.get(a) + span.get(a) * rng.random::<f64>();
                     }
-                    let x = V::from_slice(&c);
-                    if placed.overlaps(x, radius, out.positions(), out.radii()) {
+                    let x = wrap(V::from_slice(&c));
+                    if overlaps(&placed, x, radius, &out) {
                         continue;
                     }
                     let v = random_velocity(&mut rng);
@@ -223,8 +232,8 @@ pub(crate) fn particles<V: Vector>(
                         }
                         site[a] = 0;
                     }
-                    let x = V::from_slice(&c);
-                    if placed.overlaps(x, radius, out.positions(), out.radii()) {
+                    let x = wrap(V::from_slice(&c));
+                    if overlaps(&placed, x, radius, &out) {
                         continue 'sites;
                     }
                     let v = random_velocity(&mut rng);
@@ -338,6 +347,46 @@ impl PlacementGrid {
     fn axis_cell(&self, axis: usize, coordinate: f64) -> usize {
         let t = ((coordinate - self.origin[axis]) * self.inverse_cell).floor();
         (t.max(0.0) as usize).min(self.dims[axis] - 1)
+    }
+
+    /// [`PlacementGrid::overlaps`] for `x` and its images across the seams of `periodic`
+    /// (`domain`'s periodic axes) that lie within reach of another particle: `x` is wrapped,
+    /// so an image one period away can only touch particles near the opposite face.
+    fn overlaps_across<V: Vector>(
+        &self,
+        periodic: &Periodic,
+        domain: &Aabb<V>,
+        x: V,
+        radius: f64,
+        positions: &[V],
+        radii: &[f64],
+    ) -> bool {
+        let reach = radius + self.max_radius;
+        // Per axis: no shift, and one period towards the far face when x is near a face.
+        let mut shifts = [[0.0; 2]; 3];
+        let mut count = [1usize; 3];
+        for a in (0..V::DIM).filter(|&a| periodic.is_periodic(a)) {
+            let (c, length) = (x.get(a), periodic.length(a));
+            let widened = carom_engine::grid::widened_reach(c.abs() + length, reach);
+            if c - domain.min.get(a) < widened {
+                shifts[a][1] = length;
+                count[a] = 2;
+            } else if domain.max.get(a) - c < widened {
+                shifts[a][1] = -length;
+                count[a] = 2;
+            }
+        }
+        for z in &shifts[2][..count[2]] {
+            for y in &shifts[1][..count[1]] {
+                for sx in &shifts[0][..count[0]] {
+                    let image = x + V::from_slice(&[*sx, *y, *z]);
+                    if self.overlaps(image, radius, positions, radii) {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
     }
 
     fn overlaps<V: Vector>(&self, x: V, radius: f64, positions: &[V], radii: &[f64]) -> bool {

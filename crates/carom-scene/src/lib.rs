@@ -16,11 +16,12 @@ pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
 
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::grid::MAX_CELLS;
+use carom_engine::periodic::shortest_period;
 use carom_engine::world::{
     DEFAULT_POSITION_ITERATIONS, DEFAULT_SUBSTEPS, DEFAULT_VELOCITY_ITERATIONS,
 };
 use carom_engine::{
-    Aabb, BroadPhaseKind, EngineError, Particles, Plane, Vector, World, WorldConfig,
+    Aabb, BroadPhaseKind, EngineError, Particles, Periodic, Plane, Vector, World, WorldConfig,
 };
 use carom_engine::{ContactImpulses, Tally};
 use raw::{RawBroadPhaseKind, RawScene};
@@ -97,6 +98,9 @@ impl<V: Vector> Scene<V> {
             .particles(particles);
         if let Some(d) = self.config.domain {
             b = b.domain(d);
+        }
+        if self.config.periodic.iter().any(|&a| a) {
+            b = b.periodic(&self.config.periodic[..V::DIM]);
         }
         if let Some(v) = self.config.resting_speed {
             b = b.resting_speed(v);
@@ -243,6 +247,30 @@ impl Ctx<'_> {
         }
     }
 
+    /// `[domain] periodic`: one boolean per axis.
+    pub(crate) fn periodic<V: Vector>(&self, value: &toml::Value) -> Result<[bool; 3], SceneError> {
+        let field = "domain.periodic";
+        let wrong = || {
+            self.err(
+                field,
+                format!(
+                    "must be an array of {} booleans (one per axis, dimensions = {}), got {value}",
+                    V::DIM,
+                    V::DIM
+                ),
+            )
+        };
+        let list = value.as_array().ok_or_else(wrong)?;
+        if list.len() != V::DIM {
+            return Err(wrong());
+        }
+        let mut axes = [false; 3];
+        for (a, v) in list.iter().enumerate() {
+            axes[a] = v.as_bool().ok_or_else(wrong)?;
+        }
+        Ok(axes)
+    }
+
     pub(crate) fn aabb<V: Vector>(
         &self,
         field: &str,
@@ -275,6 +303,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
 
     let mut domain = None;
     let mut walls = None;
+    let mut periodic = [false; 3];
     if let Some(d) = &raw.domain {
         domain = Some(ctx.aabb::<V>("domain", &d.min, &d.max)?);
         let k = match d.restitution {
@@ -284,11 +313,16 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         if d.walls {
             walls = Some(k);
         }
+        if let Some(value) = &d.periodic {
+            periodic = ctx.periodic::<V>(value)?;
+        }
     }
+    let wraps = periodic.iter().any(|&a| a);
 
-    // Default: the lecture's grid when walls close the domain, otherwise the unbounded hash
-    // (particles may roam anywhere, and a grid would clamp them into its border cells).
-    let mut broad_phase = if walls.is_some() {
+    // Default: the lecture's grid when walls close the domain (or it wraps around), otherwise
+    // the unbounded hash (particles may roam anywhere, and a grid would clamp them into its
+    // border cells).
+    let mut broad_phase = if walls.is_some() || wraps {
         BroadPhaseKind::Grid
     } else {
         BroadPhaseKind::Hash
@@ -300,6 +334,12 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
             Some(RawBroadPhaseKind::Grid) => broad_phase = BroadPhaseKind::Grid,
             Some(RawBroadPhaseKind::Hash) => broad_phase = BroadPhaseKind::Hash,
             None => {}
+        }
+        if wraps && broad_phase == BroadPhaseKind::Hash {
+            return Err(ctx.err(
+                "broadphase.kind",
+                "the unbounded hash does not support periodic axes: use \"grid\" or \"brute\"",
+            ));
         }
         if let Some(cells) = &b.cells {
             if cells.len() != V::DIM {
@@ -400,7 +440,24 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         planes.push(plane);
     }
 
-    let particles = fill::particles::<V>(ctx, &raw, domain)?;
+    let wrap = domain.and_then(|d| Periodic::new(&d, &periodic));
+    let particles = fill::particles::<V>(ctx, &raw, domain, wrap)?;
+    if let (Some(d), true) = (domain, wraps) {
+        let shortest = shortest_period(particles.max_radius());
+        for a in (0..V::DIM).filter(|&a| periodic[a]) {
+            let length = d.max.get(a) - d.min.get(a);
+            if length <= shortest {
+                return Err(ctx.err(
+                    "domain.periodic",
+                    format!(
+                        "axis {a} is {length} long, but a periodic axis must be longer than \
+                         {shortest} (4 (2 + slop) times the largest radius, so that only one \
+                         image of a particle can touch another)"
+                    ),
+                ));
+            }
+        }
+    }
 
     Ok(Scene {
         name: raw.name,
@@ -414,6 +471,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
             position_iterations,
             substeps,
             domain,
+            periodic,
             broad_phase,
             grid_cells,
             resting_speed,

@@ -32,6 +32,8 @@ pub(crate) struct RawDomain {
     #[serde(default)]
     pub walls: bool,
     pub restitution: Option<f64>,
+    /// Any TOML value here, checked by hand, so that a wrong one is an error naming the field.
+    pub periodic: Option<toml::Value>,
 }
 
 #[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]

@@ -69,6 +69,8 @@ pub(super) fn read_row<V: Vector>(r: &mut Reader) -> Row<V> {
         touching: false,
         met: false,
         impact: false,
+        // (split runs refuse periodic axes, so no row of theirs is shifted)
+        shift: V::ZERO,
     }
     .flags(r.u32())
 }

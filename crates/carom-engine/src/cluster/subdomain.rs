@@ -161,7 +161,12 @@ impl<V: Vector> std::fmt::Debug for Subdomain<V> {
 
 impl<V: Vector> Subdomain<V> {
     /// Rank `rank`'s share (of `ranks`) of `world`, which every rank built the same way.
+    /// Refuses a world with periodic axes ([`EngineError::PeriodicSplit`]): contacts across a
+    /// seam would join the first and the last rank, which the ghost exchange does not do.
     pub fn new(world: &World<V>, rank: usize, ranks: usize) -> Result<Self, EngineError> {
+        if world.config().periodic().is_some() {
+            return Err(EngineError::PeriodicSplit);
+        }
         let n = world.len();
         let partition = Partition::new(n, block_size(n, V::DIM), ranks);
         let slots = partition.slots_of(rank);
