@@ -5,6 +5,7 @@ mod cluster;
 mod render;
 mod run;
 mod session;
+mod validate;
 mod view;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -42,6 +43,10 @@ enum Command {
     /// Long-run check: run a scene (default: the lecture's 5000 particles) for many steps and
     /// print NaN count, escaped particles, energy and peak memory every `--every` steps.
     Soak(session::soak::SoakArgs),
+    /// Measure periodic gases against kinetic theory (Haff's law, the equations of state of
+    /// Henderson and Carnahan-Starling, Enskog's collision frequency, Maxwell-Boltzmann) and
+    /// say which case is within its tolerance; exit status 1 when one is not.
+    Validate(validate::ValidateArgs),
 }
 
 /// Options of `carom run`.
@@ -134,6 +139,7 @@ fn main() -> ExitCode {
         Command::View(args) => view::view(&args),
         Command::Render(args) => render::render(&args),
         Command::Soak(args) => session::soak::soak(&args),
+        Command::Validate(args) => validate::validate(&args),
         Command::Presets => {
             for (name, text) in carom_scene::PRESETS {
                 let title = text

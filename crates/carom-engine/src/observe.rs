@@ -5,7 +5,8 @@
 //! in 2D), and `u = sum m v / sum m` the mass-weighted mean velocity:
 //!
 //! - granular temperature `T = sum m |v - u|^2 / (d N)` (energy units);
-//! - collisions: particle-particle impacts since the start. A pair that answers an approach
+//! - collisions: particle-particle impacts since the first reading (the start, for
+//!   `carom run --observe`). A pair that answers an approach
 //!   in a step counts once for that step (with the lecture's response, or as an impact of the
 //!   resting-contact solver, see [`crate::solver`]); resting contacts that are not approaching
 //!   do not count, and neither do planes;
@@ -39,7 +40,7 @@ pub struct Observables {
     pub potential_energy: f64,
     /// Granular temperature `sum m |v - u|^2 / (d N)` (0 without particles).
     pub temperature: f64,
-    /// Particle-particle collisions since the start.
+    /// Particle-particle collisions since the first reading.
     pub collisions: u64,
     /// Pressure over the interval since the previous reading (the kinetic part alone when no
     /// time has passed since it); NaN without a domain to take the volume of.
@@ -48,12 +49,16 @@ pub struct Observables {
     pub max_overlap: f64,
 }
 
-/// The running sums behind [`Observables`]: the collisions since the start, and what the
-/// pressure needs since the previous reading. Part of a world's state (a checkpoint keeps it,
-/// so a resumed run reads the same numbers).
+/// The running sums behind [`Observables`]: the collisions since the first reading, and what
+/// the pressure needs since the previous one. Part of a world's state (a checkpoint keeps it,
+/// so a resumed run reads the same numbers). Nothing is summed before the first reading: a
+/// world nobody observes pays nothing for it, and its state (and checkpoint) is the same
+/// whether it runs in one process or split over several.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Tally {
-    /// Particle-particle collisions since the start.
+    /// True once the world has been read (`World::observe`): the sums run from then on.
+    pub observing: bool,
+    /// Particle-particle collisions since the first reading.
     pub collisions: u64,
     /// `sum J_ij . r_ij` over the impulses since the previous reading (mass x length^2 /
     /// time).
@@ -89,9 +94,10 @@ impl Tally {
         sum / (dim as f64 * volume)
     }
 
-    /// Starts a new interval (the collisions count on).
+    /// Starts a new interval (the collisions count on), and the sums if they had not started.
     pub(crate) fn restart(&mut self) {
         *self = Tally {
+            observing: true,
             collisions: self.collisions,
             ..Tally::default()
         };
@@ -178,6 +184,7 @@ mod tests {
         assert_eq!(
             tally,
             Tally {
+                observing: true,
                 collisions: 3,
                 ..Tally::default()
             }

@@ -868,16 +868,21 @@ impl<V: Vector> Phases for World<V> {
             }
             self.all_asleep = !self.store.is_empty() && self.islands.count == self.store.len();
         }
-        let dt = self.config.dt;
         // (all asleep: everything is at rest, no collision, no virial, no thermal motion)
-        let (collisions, virial, thermal) = if self.all_asleep {
-            (0, 0.0, 0.0)
+        let (collisions, virial) = if self.all_asleep {
+            (0, 0.0)
         } else {
-            let (collisions, virial) = solver::tally(&self.rows);
-            let thermal = observe::thermal_sum(&self.store.mass, &self.store.velocity);
-            (collisions, virial, thermal)
+            solver::tally(&self.rows)
         };
-        self.tally.add_step(dt, collisions, virial, thermal);
+        if self.tally.observing {
+            let thermal = if self.all_asleep {
+                0.0
+            } else {
+                observe::thermal_sum(&self.store.mass, &self.store.velocity)
+            };
+            self.tally
+                .add_step(self.config.dt, collisions, virial, thermal);
+        }
         self.last_overlap = Some(max_overlap);
         // Wrapped last: the rest times above compare where the step started and ended.
         if let (Some(p), false) = (&self.periodic, self.all_asleep) {
@@ -1240,7 +1245,8 @@ impl<V: Vector> World<V> {
     }
 
     /// The observables now (see [`crate::observe`]), with the pressure over the interval since
-    /// the previous call (or since the start), which this call closes.
+    /// the previous call, which this call closes. The first call starts the sums (collisions
+    /// count from it; its pressure is the kinetic part alone).
     pub fn observe(&mut self) -> Observables {
         let max_overlap = match self.last_overlap {
             Some(overlap) => overlap,

@@ -25,6 +25,12 @@ fn head_on(gap: f64, k: f64) -> World<DVec2> {
 fn a_head_on_collision_counts_once_and_its_virial_is_the_impulse_times_the_distance() {
     for k in [0.0, 0.5, 1.0] {
         let mut world = head_on(1.99, k);
+        // nothing is summed before the first reading
+        assert!(!world.tally().observing);
+        world.step();
+        assert_eq!(world.tally().collisions, 0);
+        let mut world = head_on(1.99, k);
+        world.observe();
         let stats = world.step();
         assert_eq!(stats.collisions, 1, "k = {k}");
         let tally = world.tally();

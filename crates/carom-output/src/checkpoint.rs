@@ -19,9 +19,9 @@
 //! u64 + m x (u32, u32, f64)   resting pair impulses (id a < id b, impulse), sorted
 //! u64 + m x (u32, u32, f64)   resting plane impulses (id, plane, impulse), sorted
 //! u64 + r x f64          rest times (time units) by id, r = 0 (none has rested) or n
-//! u64, 3 x f64           the observables' running sums: collisions since the start, then
-//!                        virial, thermal integral and interval since the last reading
-//!                        (version 4 on; version 3 files read as all zero)
+//! u64, u64, 3 x f64      the observables' running sums: 1 when observing (else 0),
+//!                        collisions, then virial, thermal integral and interval since the
+//!                        last reading (version 4 on; version 3 files read as not observing)
 //! u64                    FNV-1a 64 of everything above
 //! ```
 //!
@@ -137,6 +137,7 @@ impl Checkpoint {
             w.write_all(&t.to_le_bytes())?;
         }
         let t = &self.tally;
+        w.write_all(&(t.observing as u64).to_le_bytes())?;
         w.write_all(&t.collisions.to_le_bytes())?;
         for x in [t.virial, t.thermal, t.interval] {
             w.write_all(&x.to_le_bytes())?;
@@ -209,6 +210,11 @@ impl Checkpoint {
         let rest = (0..count).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
         let tally = if version >= 4 {
             Tally {
+                observing: match r.u64()? {
+                    0 => false,
+                    1 => true,
+                    other => return Err(format!("damaged checkpoint: observing flag {other}")),
+                },
                 collisions: r.u64()?,
                 virial: r.f64()?,
                 thermal: r.f64()?,
@@ -301,6 +307,7 @@ mod tests {
             plane_impulses: vec![(1, 3, 0.125)],
             rest: vec![0.5, 0.0],
             tally: Tally {
+                observing: true,
                 collisions: 12,
                 virial: 0.25,
                 thermal: 3.5,
@@ -326,8 +333,8 @@ mod tests {
         };
         let mut bytes = Vec::new();
         old.write_to(&mut bytes).unwrap();
-        // a version 3 file: no observables' sums (32 bytes) before the checksum
-        let mut body = bytes[..bytes.len() - 8 - 32].to_vec();
+        // a version 3 file: no observables' sums (40 bytes) before the checksum
+        let mut body = bytes[..bytes.len() - 8 - 40].to_vec();
         body[8..12].copy_from_slice(&3u32.to_le_bytes());
         let hash = fnv(FNV_OFFSET, &body);
         body.extend_from_slice(&hash.to_le_bytes());

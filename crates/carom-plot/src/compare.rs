@@ -134,9 +134,13 @@ mod tests {
             title: "Haff".into(),
             x_label: "t / t0".into(),
             y_label: "T / T0".into(),
-            measured: (0..10).map(|k| (k as f64 * 0.2, 1.0 / (1.0 + k as f64 * 0.2).powi(2))).collect(),
+            measured: (0..10)
+                .map(|k| (k as f64 * 0.2, 1.0 / (1.0 + k as f64 * 0.2).powi(2)))
+                .collect(),
             measured_label: "carom".into(),
-            theory: (0..50).map(|k| (k as f64 * 0.04, 1.0 / (1.0 + k as f64 * 0.04).powi(2))).collect(),
+            theory: (0..50)
+                .map(|k| (k as f64 * 0.04, 1.0 / (1.0 + k as f64 * 0.04).powi(2)))
+                .collect(),
             theory_label: "theory".into(),
         };
         let png = comparison_plot_png(&plot).unwrap();
