@@ -458,6 +458,22 @@ fn print_summary<V: Vector>(
                 _ => String::new(),
             }
         );
+        println!(
+            "collisions  {} particle-particle impacts, {:.4} per particle per time unit",
+            driven.collisions_total,
+            driven.collisions_total as f64
+                / (world.len().max(1) as f64 * steps as f64 * world.config().dt)
+        );
+        if capped_steps > 0 {
+            println!(
+                "solver      the velocity sweeps stopped at their cap ({}) in {capped_steps} of \
+                 {steps} steps: contacts still approaching then were met again the next step \
+                 (momentum stays exact, the position phase bounds the overlap; a dense gas at \
+                 low k collapses inelastically, a deep pile needs more sweeps: [solver] \
+                 velocity_iterations)",
+                world.config().velocity_iterations
+            );
+        }
         if world.config().sleep_settings(world.planes()).is_some() {
             let n = world.len();
             match driven.asleep_since {

@@ -284,6 +284,8 @@ pub struct Driven {
     pub contacts_total: u64,
     pub contacts_max: usize,
     pub capped_steps: u64,
+    /// Particle-particle collisions (see `carom_engine::observe`).
+    pub collisions_total: u64,
     /// The deepest overlap left by the last step and by any step, as fractions of the smaller
     /// radius.
     pub last_overlap: f64,
@@ -440,6 +442,7 @@ pub fn drive<V: Vector, S: Stepper<V>>(
             driven.contacts_total += stats.contacts as u64;
             driven.contacts_max = driven.contacts_max.max(stats.contacts);
             driven.capped_steps += stats.capped as u64;
+            driven.collisions_total += stats.collisions;
             driven.last_overlap = stats.max_overlap;
             driven.worst_overlap = driven.worst_overlap.max(stats.max_overlap);
             let step = stepper.steps_taken();
