@@ -544,4 +544,37 @@ mod tests {
             .find_pairs(&pos, &rad, &mut got);
         assert_eq!(got, expected, "derived cells");
     }
+
+    #[test]
+    fn periodic_grid_equals_periodic_brute_force_for_any_cell_size() {
+        let (pos, rad) = lattice_with_jitter(600);
+        // (the cloud fills (-15, 15)^3, the domain: wrapped, as the world keeps it)
+        let domain = Aabb::new(DVec3::splat(-15.0), DVec3::splat(15.0)).unwrap();
+        for axes in [
+            [true, false, false],
+            [true, true, true],
+            [false, true, true],
+        ] {
+            let periodic = Periodic::new(&domain, &axes);
+            let pos: Vec<DVec3> = pos.iter().map(|&x| periodic.unwrap().wrap(x)).collect();
+            let mut expected = Vec::new();
+            BruteForce::new()
+                .with_periodic(periodic)
+                .find_pairs(&pos, &rad, &mut expected);
+            let mut plain = Vec::new();
+            BruteForce::new().find_pairs(&pos, &rad, &mut plain);
+            assert!(
+                expected.len() > plain.len(),
+                "{axes:?}: pairs across the seams"
+            );
+            for cells in [[1, 1, 1], [2, 3, 2], [3, 5, 7], [12, 12, 12], [40, 40, 40]] {
+                let mut got = Vec::new();
+                Grid::new(Some(domain), Some(&cells))
+                    .unwrap()
+                    .with_periodic(periodic)
+                    .find_pairs(&pos, &rad, &mut got);
+                assert_eq!(got, expected, "{axes:?}, cells {cells:?}");
+            }
+        }
+    }
 }

@@ -41,14 +41,23 @@ fn my_turn() -> std::sync::MutexGuard<'static, ()> {
 /// a steady state (contacts come and go every step, but their number does not keep growing,
 /// which would legitimately grow the buffers; an inelastic gas cools and clusters).
 fn gas<V: Vector>(per_axis: usize, kind: BroadPhaseKind) -> World<V> {
+    gas_in(per_axis, kind, false)
+}
+
+/// [`gas`], in a box closed by walls or periodic on every axis.
+fn gas_in<V: Vector>(per_axis: usize, kind: BroadPhaseKind, periodic: bool) -> World<V> {
     let spacing = 2.5;
     let half = per_axis as f64 * spacing / 2.0 + 2.0;
     let mut b = World::<V>::builder()
         .dt(0.01)
         .restitution(1.0)
         .domain(Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap())
-        .walls(1.0)
         .broad_phase(kind);
+    b = if periodic {
+        b.periodic(&[true; 3][..V::DIM])
+    } else {
+        b.walls(1.0)
+    };
     let mut s = 3u64;
     let mut next = || {
         s = s
@@ -128,6 +137,35 @@ fn stepping_does_not_allocate_after_warm_up() {
     let mut w = gas::<DVec3>(12, BroadPhaseKind::Grid);
     let n = allocations_in_steps(&mut w, warmup, REORDER_INTERVAL);
     assert_eq!(n, 0, "3D, 1728 particles: {n} allocations");
+}
+
+/// The same with periodic axes: the wrap, the shifted rows and the grid's wrapped searches
+/// allocate nothing either.
+#[test]
+fn a_periodic_gas_does_not_allocate() {
+    let _turn = my_turn();
+    let warmup = 8 * REORDER_INTERVAL;
+    for kind in [BroadPhaseKind::Grid, BroadPhaseKind::Brute] {
+        let mut w = gas_in::<DVec2>(30, kind, true);
+        let n = allocations_in_steps(&mut w, warmup, 2 * REORDER_INTERVAL);
+        assert_eq!(
+            n, 0,
+            "periodic 2D, 900 particles, {kind:?}: {n} allocations"
+        );
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let mut w = gas_in::<DVec2>(150, BroadPhaseKind::Grid, true);
+    let n = pool.install(|| allocations_in_steps(&mut w, warmup, REORDER_INTERVAL));
+    assert_eq!(
+        n, 0,
+        "periodic 2D, 22,500 particles, two threads: {n} allocations"
+    );
+    let mut w = gas_in::<DVec3>(12, BroadPhaseKind::Grid, true);
+    let n = allocations_in_steps(&mut w, warmup, REORDER_INTERVAL);
+    assert_eq!(n, 0, "periodic 3D, 1728 particles: {n} allocations");
 }
 
 /// 400 discs of radius 0.7 dropped in rows into a walled box at dt = 1/60, k = 0.5.
