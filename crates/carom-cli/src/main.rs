@@ -53,7 +53,10 @@ enum Command {
 #[derive(clap::Args, Debug)]
 #[command(group(clap::ArgGroup::new("framed").args(["trajectory", "observe"]).multiple(true)))]
 pub struct RunArgs {
-    /// Scene file (TOML). Without it, the built-in default scene runs.
+    /// Scene file (TOML; the format is in docs/scene-format.md). Without it, the built-in
+    /// default scene runs. A scene's box can be periodic per axis (`[domain] periodic =
+    /// [true, false]`: positions wrap into the box, contacts across the seam use the nearest
+    /// image; `walls = true` then closes only the other axes).
     pub scene: Option<PathBuf>,
     /// Run a built-in scene by name instead of a file (see `carom presets`).
     #[arg(long, conflicts_with = "scene")]

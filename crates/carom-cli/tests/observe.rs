@@ -125,3 +125,43 @@ fn bad_uses_are_refused_before_any_work_and_leave_no_file() {
         assert!(!obs.exists(), "{args:?} left a file");
     }
 }
+
+#[test]
+fn a_dense_inelastic_periodic_gas_neither_hangs_nor_blows_up() {
+    let dir = tempfile::tempdir().unwrap();
+    let obs = dir.path().join("collapse.csv");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/inelastic_collapse.toml");
+    let summary = ok(carom().args([
+        "run",
+        scene.to_str().unwrap(),
+        "--steps",
+        "1500",
+        "--observe",
+        obs.to_str().unwrap(),
+        "--every",
+        "100",
+    ]));
+    // the sweeps hit their cap (the collapse), and the summary says what the solver did then
+    assert!(summary.contains("solver      the velocity sweeps stopped"), "{summary}");
+    // momentum: the summary's start and end agree to the digits it prints
+    let momentum = summary
+        .lines()
+        .find(|l| l.starts_with("momentum"))
+        .unwrap();
+    let (start, end) = momentum["momentum".len()..].split_once("->").unwrap();
+    assert_eq!(start.trim(), end.trim(), "{momentum}");
+    let text = std::fs::read_to_string(obs).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 16);
+    for pair in rows.windows(2) {
+        // it cools, every value stays finite, and no pair sinks deeper than 1 % of a radius
+        assert!(pair[1][4] < pair[0][4], "{pair:?}");
+        assert!(pair[1].iter().all(|x| x.is_finite()), "{pair:?}");
+        assert!(pair[1][7] < 0.01, "{pair:?}");
+    }
+    assert!(rows[15][5] > 3.0 * 3000.0, "collisions: {}", rows[15][5]);
+}

@@ -66,6 +66,7 @@ fn checkpoint_of<V: Vector>(world: &World<V>) -> Checkpoint {
         pair_impulses: world.contact_impulses().pairs,
         plane_impulses: world.contact_impulses().planes,
         rest: world.contact_impulses().rest,
+        tally: world.tally(),
     };
     for id in 0..world.len() {
         let (x, v, r, m) = world.particle(id);
@@ -98,6 +99,7 @@ fn resume_from<V: Vector>(setup: &Setup, bytes: &[u8]) -> World<V> {
             planes: cp.plane_impulses,
             rest: cp.rest,
         })
+        .tally(cp.tally)
         .build()
         .expect("resumed world builds")
 }
