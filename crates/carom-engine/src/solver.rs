@@ -233,6 +233,9 @@ pub(crate) struct PlaneRow<V> {
     /// How fast a resting contact may still approach the plane this step (see
     /// [`Row::allowance`]).
     pub allowance: f64,
+    /// Where the particle's centre was when the row was made (the start of the step): when
+    /// planes bounce in the move (see [`bounce_in_move`]), its path this step starts here.
+    pub start: V,
 }
 
 impl<V: Vector> PlaneRow<V> {
@@ -251,6 +254,7 @@ impl<V: Vector> PlaneRow<V> {
             plane: index,
             touching: false,
             allowance: 0.0,
+            start: x,
         };
         row.place(plane, x, dt);
         row
@@ -498,11 +502,15 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         asleep,
     } = m;
     let elastic_planes = c.planes.iter().all(|p| p.restitution() >= 1.0);
-    let substeps = if settings.lecture_only(elastic_planes) {
+    let lecture_only = settings.lecture_only(elastic_planes);
+    let substeps = if lecture_only {
         1
     } else {
         settings.substeps.max(1)
     };
+    // (see `bounce_in_move`: only where it keeps energy that the step would not)
+    let planes_in_move =
+        lecture_only && elastic_planes && !c.planes.is_empty() && gravity != V::ZERO;
     let h = dt / substeps as f64;
     let impacts = classify(
         exchange,
@@ -543,7 +551,16 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
             Pass::Restitution => settings.velocity_iterations.max(1),
             Pass::Relax => (settings.velocity_iterations / substeps).max(1),
         };
-        let (sweeps, capped) = relax(exchange, settings, velocity, c, pass, cap, &mut solve);
+        let (sweeps, capped) = relax(
+            exchange,
+            settings,
+            velocity,
+            c,
+            pass,
+            cap,
+            !planes_in_move,
+            &mut solve,
+        );
         solve.iterations += sweeps;
         solve.capped |= capped;
         if pass == Pass::Relax {
@@ -553,8 +570,117 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
             }
         }
     }
+    if planes_in_move {
+        let bounces = bounce_in_move(&mut position[..own], &mut velocity[..own], c, gravity, dt);
+        solve.responses += exchange.total(bounces);
+    }
     exchange.settle_rows(c.blocks, c.rows);
     solve
+}
+
+/// Most plane bounces one particle takes in one move. (A particle barely moving on a floor
+/// would bounce without end; a deeper overlap left over is the position phase's.)
+const MOVE_BOUNCES: usize = 4;
+
+/// When the path `x + u s + g s^2 / 2` of a particle of radius `r` first meets `plane`
+/// heading into it, for `s` in `[0, span]`: the lecture's plane detection
+/// (`(x - p) . n < r` and `n . v < 0`) along the path instead of at the start of the step.
+#[inline]
+fn time_of_impact<V: Vector>(plane: &Plane<V>, r: f64, x: V, u: V, g: V, span: f64) -> Option<f64> {
+    let n = plane.normal();
+    // gap(s) = d + a s + b s^2 / 2, heading in while a + b s < 0
+    let (d, a, b) = (plane.signed_distance(x) - r, n.dot(u), n.dot(g));
+    if d <= 0.0 && a < 0.0 {
+        return Some(0.0);
+    }
+    let mut first: Option<f64> = None;
+    let mut meet = |s: f64| {
+        if (0.0..=span).contains(&s) && a + b * s < 0.0 {
+            first = Some(first.map_or(s, |f| f.min(s)));
+        }
+    };
+    if b == 0.0 {
+        if a != 0.0 {
+            meet(-d / a);
+        }
+    } else {
+        // (the roots without cancellation)
+        let discriminant = a * a - 2.0 * b * d;
+        if discriminant >= 0.0 {
+            let q = -0.5 * (a + discriminant.sqrt().copysign(a));
+            if q != 0.0 {
+                meet(2.0 * q / b);
+                meet(d / q);
+            }
+        }
+    }
+    first
+}
+
+/// Plane bounces at their time of impact, for the lecture's step under gravity with elastic
+/// planes (`planes_in_move` in [`integrate`]); returns how many bounces this process made.
+///
+/// The lecture's step answers a plane contact found at the start of the step, on the velocity
+/// after gravity, and pushes a particle that the move took into a plane back out. Under
+/// gravity neither keeps energy: the bounce comes up to a step late with a velocity gravity
+/// has sped up towards the floor (it leaves with `g dt` too much), and the push out lifts it
+/// (`m |g|` times the depth). On the lecture's 5000-disc gas at dt = 0.005, the two added 7.1 %
+/// and 3.5 % of the initial kinetic energy in 4000 steps, in proportion to dt.
+///
+/// Here instead each plane candidate follows its path through the step: `x += v dt` after
+/// `v += g dt` is exactly the parabola `x(s) = x + u s + g s^2 / 2` with `u = v - g dt / 2`
+/// (the velocity at the start of the step). Where that path first meets a plane, the particle
+/// takes the lecture's rule `V' = V_T - k V_N` on its velocity at that moment and goes on along
+/// the new parabola to the end of the step. Position and velocity stay on one exact parabola
+/// through the bounce, so with `k = 1` the energy is what it was, to rounding. A particle
+/// whose path meets no plane keeps the bits of the plain move.
+fn bounce_in_move<V: Vector>(
+    position: &mut [V],
+    velocity: &mut [V],
+    c: &Contacts<V>,
+    g: V,
+    dt: f64,
+) -> u64 {
+    let mut bounces = 0;
+    let mut k = 0;
+    while k < c.plane_contacts.len() {
+        let i = c.plane_contacts[k].0;
+        let end = k + c.plane_contacts[k..]
+            .iter()
+            .take_while(|contact| contact.0 == i)
+            .count();
+        let rows = &c.plane_rows[k..end];
+        k = end;
+        let i = i as usize;
+        // where the particle was at the start of the step, its velocity there, and the time
+        // its path has taken so far
+        let (mut x, mut u, mut t) = (rows[0].start, velocity[i] - g * (0.5 * dt), 0.0);
+        let mut bounced = false;
+        for _ in 0..MOVE_BOUNCES {
+            let hit = rows
+                .iter()
+                .filter_map(|row| {
+                    let plane = &c.planes[row.plane as usize];
+                    time_of_impact(plane, row.radius, x, u, g, dt - t).map(|s| (s, plane))
+                })
+                .fold(None, |first: Option<(f64, &Plane<V>)>, hit| match first {
+                    Some(f) if f.0 <= hit.0 => Some(f),
+                    _ => Some(hit),
+                });
+            let Some((s, plane)) = hit else { break };
+            x += u * s + g * (0.5 * s * s);
+            u = plane.bounce(u + g * s);
+            t += s;
+            bounced = true;
+            bounces += 1;
+        }
+        if bounced {
+            let rest = dt - t;
+            position[i] = x + u * rest + g * (0.5 * rest * rest);
+            velocity[i] = u + g * (rest - 0.5 * dt);
+        }
+    }
+    bounces
 }
 
 /// `v += dv` for every particle not `asleep` (empty: none is), on the thread pool when
@@ -625,6 +751,7 @@ fn advance_positions<V: Vector>(
 /// One pass's sweeps (see [`integrate`]) until one changes nothing or `cap` is hit; returns the
 /// sweeps made and whether the cap was hit. After the first sweep, each sweep visits only the
 /// contacts whose particles the sweeps before it changed (the work list).
+#[allow(clippy::too_many_arguments)]
 fn relax<V: Vector, E: Exchange<V>>(
     exchange: &mut E,
     settings: &SolverSettings,
@@ -632,6 +759,7 @@ fn relax<V: Vector, E: Exchange<V>>(
     c: &mut Contacts<V>,
     pass: Pass,
     cap: u32,
+    with_planes: bool,
     solve: &mut VelocitySolve,
 ) -> (u32, bool) {
     let k = settings.restitution;
@@ -657,15 +785,20 @@ fn relax<V: Vector, E: Exchange<V>>(
     for sweeps in 1..=cap {
         let this = c.work.next(visit);
         visit = Some(this);
-        // Planes first: a floor's support then travels up a stack within one sweep.
-        let on_planes = blocks.run_planes(
-            velocity,
-            c.work.stamps,
-            this,
-            c.plane_contacts,
-            c.plane_rows,
-            &plane_rule,
-        );
+        // Planes first: a floor's support then travels up a stack within one sweep. (Not when
+        // they bounce in the move instead: see `bounce_in_move`.)
+        let on_planes = if with_planes {
+            blocks.run_planes(
+                velocity,
+                c.work.stamps,
+                this,
+                c.plane_contacts,
+                c.plane_rows,
+                &plane_rule,
+            )
+        } else {
+            0
+        };
         // Alternate the direction within each block (symmetric Gauss-Seidel): support then
         // spreads both ways through a stack instead of one layer per sweep.
         let reverse = sweeps % 2 == 0;
