@@ -24,7 +24,9 @@
 //! after the particles move, overlapping particles are moved apart along their normal, each by
 //! its share of inverse mass, down to a small slop, and pushed out of planes.
 //! Positions only: velocities are never touched, so this can never add kinetic energy. Planes
-//! go last so a walled box holds its particles.
+//! go last so a walled box holds its particles. (One exception, the lecture's step under
+//! gravity with every plane elastic: a lift out of a plane is paid for from the particle's
+//! speed, so that kinetic + potential energy is kept; see `keep_energy`.)
 //!
 //! The order of every rule application is fixed by [`crate::schedule`].
 
@@ -499,6 +501,8 @@ pub(crate) struct Moving<'a, V> {
 ///
 /// Without gravity (resting speed 0), or with `k = 1` on every contact, this is the lecture's
 /// step: `v += g dt`, the lecture's response swept until nothing approaches, `x += v dt`.
+/// (Under gravity with every plane elastic, planes bounce at their time of impact within the
+/// move instead of in the sweeps: see [`bounce_in_move`].)
 /// Otherwise contacts can rest, and the step is Box2D's "soft step" (Catto 2024; Macklin et
 /// al. 2019, "Small steps in physics simulation"), with the lecture's formula for impacts:
 ///
