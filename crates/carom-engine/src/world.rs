@@ -820,11 +820,19 @@ impl<V: Vector> Phases for World<V> {
 
     fn separate(&mut self) -> f64 {
         let settings = self.config.solver_settings();
+        let gravity = self.config.gravity;
         if self.all_asleep {
             return self.asleep_overlap;
         }
         let (mut contacts, store, _) = self.contacts_mut();
-        let awake = solver::separate(&mut Alone, &settings, &mut store.position, &mut contacts);
+        let awake = solver::separate(
+            &mut Alone,
+            &settings,
+            gravity,
+            &mut store.position,
+            &mut store.velocity,
+            &mut contacts,
+        );
         awake.max(self.asleep_overlap)
     }
 
@@ -931,6 +939,8 @@ impl<V: Vector> World<V> {
             self.plane_buffers.resize_with(chunks, Vec::new);
         }
         let (position, reach, planes) = (&self.store.position, &self.reach, &self.planes);
+        let radius = &self.store.radius;
+        let in_move = (self.config.solver_settings()).planes_in_move(planes, self.config.gravity);
         let islands = &self.islands;
         let work = |(c, out): (usize, &mut Vec<PlaneContact>)| {
             out.clear();
@@ -939,7 +949,9 @@ impl<V: Vector> World<V> {
                     continue;
                 }
                 for (p, plane) in planes.iter().enumerate() {
-                    if plane.signed_distance(position[i]) < reach[i] {
+                    if plane.signed_distance(position[i])
+                        < solver::plane_reach(reach[i], radius[i], in_move)
+                    {
                         out.push((i as u32, p as u32));
                     }
                 }

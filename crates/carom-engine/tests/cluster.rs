@@ -107,6 +107,24 @@ fn walled_2d_pile_is_bit_identical_on_1_to_4_ranks() {
     );
 }
 
+/// The lecture's step under gravity with k = 1 and elastic walls: walls bounce at their time of
+/// impact within the move, and the position phase pays for lifts out of walls from the speeds
+/// (own particles only, as every rank does for its own).
+#[test]
+fn elastic_walled_2d_gas_under_gravity_is_bit_identical_on_2_and_3_ranks() {
+    check_identical(
+        || {
+            walled::<DVec2>(5000, 100.0, 3.0)
+                .restitution(1.0)
+                .walls(1.0)
+                .build()
+                .unwrap()
+        },
+        70,
+        &[2, 3],
+    );
+}
+
 #[test]
 fn open_3d_cloud_with_the_hash_is_bit_identical() {
     let build = || {

@@ -138,6 +138,41 @@ fn grid_and_brute_force_are_bit_identical_3d_small_cells() {
     assert!(big > 10, "too few contacts with large particles: {big}");
 }
 
+/// The lecture's step under gravity with elastic walls and k = 1, where wall bounces come at
+/// their time of impact within the move and the position phase pays for lifts out of walls
+/// from the particles' speeds: brute force and grids still give the same bits.
+#[test]
+fn grid_and_brute_force_are_bit_identical_elastic_under_gravity() {
+    let bodies = mixed_bodies::<DVec2>(600, 50.0, 8.0, 6);
+    let elastic = |kind, cells| {
+        walled_builder(&bodies, kind, cells)
+            .restitution(1.0)
+            .walls(1.0)
+            .build()
+            .unwrap()
+    };
+    let mut worlds = vec![
+        elastic(BroadPhaseKind::Brute, None),
+        elastic(BroadPhaseKind::Grid, Some(&[60, 60])),
+        elastic(BroadPhaseKind::Grid, None),
+    ];
+    let big = lockstep(&mut worlds, 200);
+    assert!(big > 100, "too few contacts with large particles: {big}");
+    let bodies = mixed_bodies::<DVec3>(400, 50.0, 8.0, 7);
+    let elastic = |kind, cells| {
+        walled_builder(&bodies, kind, cells)
+            .restitution(1.0)
+            .walls(1.0)
+            .build()
+            .unwrap()
+    };
+    let mut worlds = vec![
+        elastic(BroadPhaseKind::Brute, None),
+        elastic(BroadPhaseKind::Grid, Some(&[30, 30, 30])),
+    ];
+    lockstep(&mut worlds, 100);
+}
+
 /// Every grid resolution (coarser and finer than a diameter, anisotropic, derived, and a grid
 /// that fits the particles instead of a domain) follows the same trajectory as brute force.
 #[test]
@@ -192,29 +227,31 @@ fn every_grid_resolution_follows_brute_force_3d() {
 // 6. One thread and several threads give identical results
 // ---------------------------------------------------------------------------------------------
 
-fn big_scene(with_domain: bool) -> World<DVec2> {
+/// `elastic`: k = 1 and elastic walls (the lecture's step, walls bouncing in the move).
+fn big_scene(with_domain: bool, elastic: bool) -> World<DVec2> {
     // > 4096 particles: several integration chunks (4096) and pair-search chunks (1024)
     let bodies = mixed_bodies::<DVec2>(5000, 150.0, 5.0, 5);
+    let k = if elastic { 1.0 } else { 0.5 };
     let mut b = World::<DVec2>::builder()
         .dt(0.01)
         .gravity(DVec2::new(0.0, -9.81))
-        .restitution(0.5);
+        .restitution(k);
     if with_domain {
         b = b
             .domain(Aabb::new(DVec2::splat(-150.0), DVec2::splat(150.0)).unwrap())
-            .walls(0.8);
+            .walls(if elastic { 1.0 } else { 0.8 });
     }
     with_bodies(b, &bodies).build().unwrap()
 }
 
-fn hash_after(threads: usize, with_domain: bool, steps: usize) -> (u64, usize) {
+fn hash_after(threads: usize, with_domain: bool, elastic: bool, steps: usize) -> (u64, usize) {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     pool.install(|| {
         assert_eq!(rayon::current_num_threads(), threads);
-        let mut w = big_scene(with_domain);
+        let mut w = big_scene(with_domain, elastic);
         let mut contacts = 0;
         for _ in 0..steps {
             contacts += w.step().contacts;
@@ -225,14 +262,14 @@ fn hash_after(threads: usize, with_domain: bool, steps: usize) -> (u64, usize) {
 
 #[test]
 fn one_and_several_threads_give_identical_states() {
-    for with_domain in [true, false] {
-        let (one, contacts) = hash_after(1, with_domain, 50);
+    for (with_domain, elastic) in [(true, false), (false, false), (true, true)] {
+        let (one, contacts) = hash_after(1, with_domain, elastic, 50);
         assert!(contacts > 1000, "the scene must collide: {contacts}");
         for threads in [2, 3] {
-            let (many, _) = hash_after(threads, with_domain, 50);
+            let (many, _) = hash_after(threads, with_domain, elastic, 50);
             assert_eq!(
                 one, many,
-                "1 thread vs {threads} threads (domain: {with_domain})"
+                "1 thread vs {threads} threads (domain: {with_domain}, elastic: {elastic})"
             );
         }
     }
@@ -273,6 +310,26 @@ fn golden_hash_2d() {
 fn golden_hash_3d() {
     const GOLDEN: u64 = 0xdb10_1887_810b_3b5d;
     let mut w = golden_scene::<DVec3>();
+    for _ in 0..200 {
+        w.step();
+    }
+    assert_eq!(w.state_hash(), GOLDEN, "got {:#018x}", w.state_hash());
+}
+
+/// See [`golden_hash_2d`]: the same bodies under the lecture's step, k = 1 and elastic walls
+/// (walls bounce at their time of impact within the move; the position phase pays for lifts
+/// out of walls from the particles' speeds).
+#[test]
+fn golden_hash_elastic_2d() {
+    const GOLDEN: u64 = 0x4dae_b14a_38f3_f2cd;
+    let bodies = mixed_bodies::<DVec2>(400, 40.0, 6.0, 2024);
+    let b = World::<DVec2>::builder()
+        .dt(0.005)
+        .gravity(DVec2::new(0.0, -9.81))
+        .restitution(1.0)
+        .domain(Aabb::new(DVec2::splat(-40.0), DVec2::splat(40.0)).unwrap())
+        .walls(1.0);
+    let mut w = with_bodies(b, &bodies).build().unwrap();
     for _ in 0..200 {
         w.step();
     }

@@ -665,13 +665,16 @@ impl<V: Vector> Subdomain<V> {
         self.put_islands_to_sleep(link);
         self.plane_contacts.clear();
         self.plane_rows.clear();
+        let in_move =
+            (self.config.solver_settings()).planes_in_move(&self.planes, self.config.gravity);
         for s in 0..own {
             if self.islands.sleeps(s) {
                 continue;
             }
             let x = self.window.position[s];
             for (p, plane) in self.planes.iter().enumerate() {
-                if plane.signed_distance(x) < self.reach[s] {
+                let radius = self.window.radius[s];
+                if plane.signed_distance(x) < solver::plane_reach(self.reach[s], radius, in_move) {
                     self.plane_contacts.push((s as u32, p as u32));
                     self.plane_rows.push(PlaneRow::new(
                         plane,
@@ -929,8 +932,16 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
         let settings = self.sub.config.solver_settings();
         let sleeping = self.sub.config.sleep_settings(&self.sub.planes).is_some();
         let asleep_overlap = self.sub.asleep_overlap;
+        let gravity = self.sub.config.gravity;
         self.solve(|exchange, window, contacts| {
-            let awake = solver::separate(exchange, &settings, &mut window.position, contacts);
+            let awake = solver::separate(
+                exchange,
+                &settings,
+                gravity,
+                &mut window.position,
+                &mut window.velocity,
+                contacts,
+            );
             if sleeping {
                 awake.max(exchange.largest(asleep_overlap))
             } else {
