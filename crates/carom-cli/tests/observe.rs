@@ -142,12 +142,12 @@ fn a_dense_inelastic_periodic_gas_neither_hangs_nor_blows_up() {
         "100",
     ]));
     // the sweeps hit their cap (the collapse), and the summary says what the solver did then
-    assert!(summary.contains("solver      the velocity sweeps stopped"), "{summary}");
+    assert!(
+        summary.contains("solver      the velocity sweeps stopped"),
+        "{summary}"
+    );
     // momentum: the summary's start and end agree to the digits it prints
-    let momentum = summary
-        .lines()
-        .find(|l| l.starts_with("momentum"))
-        .unwrap();
+    let momentum = summary.lines().find(|l| l.starts_with("momentum")).unwrap();
     let (start, end) = momentum["momentum".len()..].split_once("->").unwrap();
     assert_eq!(start.trim(), end.trim(), "{momentum}");
     let text = std::fs::read_to_string(obs).unwrap();
