@@ -726,16 +726,8 @@ fn bounce_in_move<V: Vector>(
     dt: f64,
 ) -> u64 {
     let mut bounces = 0;
-    let mut k = 0;
-    while k < c.plane_contacts.len() {
-        let i = c.plane_contacts[k].0;
-        let end = k + c.plane_contacts[k..]
-            .iter()
-            .take_while(|contact| contact.0 == i)
-            .count();
-        let rows = &c.plane_rows[k..end];
-        k = end;
-        let i = i as usize;
+    for (i, rows) in on_planes(c.plane_contacts) {
+        let rows = &c.plane_rows[rows];
         // where the particle was at the start of the step, its velocity there, and the time
         // its path has taken so far
         let (mut x, mut u, mut t) = (rows[0].start, velocity[i] - g * (0.5 * dt), 0.0);
@@ -1012,23 +1004,16 @@ fn warm_start<V: Vector, E: Exchange<V>>(
 /// ones that change the energy, and a pair's push changing the pair's velocities would change
 /// its momentum.) A particle too slow to pay stops, and the rest is lost.
 fn keep_energy<V: Vector>(velocity: &mut [V], c: &Contacts<V>, g: V) {
-    let mut k = 0;
-    while k < c.plane_contacts.len() {
-        let i = c.plane_contacts[k].0;
-        let end = k + c.plane_contacts[k..]
-            .iter()
-            .take_while(|contact| contact.0 == i)
-            .count();
+    for (i, rows) in on_planes(c.plane_contacts) {
         // the work done against gravity, per unit mass
-        let work: f64 = c.plane_rows[k..end]
+        let work: f64 = c.plane_rows[rows]
             .iter()
             .map(|row| -g.dot(row.normal) * row.lift)
             .sum();
-        k = end;
         if work == 0.0 {
             continue;
         }
-        let v = &mut velocity[i as usize];
+        let v = &mut velocity[i];
         let kinetic = 0.5 * v.length_squared();
         *v = if kinetic > work {
             *v * ((kinetic - work) / kinetic).sqrt()
@@ -1036,6 +1021,19 @@ fn keep_energy<V: Vector>(velocity: &mut [V], c: &Contacts<V>, g: V) {
             V::ZERO
         };
     }
+}
+
+/// The particles touching planes, each with the range of its plane contacts (`contacts` is
+/// sorted, so a particle's contacts are consecutive).
+fn on_planes(
+    contacts: &[PlaneContact],
+) -> impl Iterator<Item = (usize, std::ops::Range<usize>)> + '_ {
+    let mut start = 0;
+    contacts.chunk_by(|a, b| a.0 == b.0).map(move |group| {
+        let rows = start..start + group.len();
+        start = rows.end;
+        (group[0].0 as usize, rows)
+    })
 }
 
 /// Moves one overlapping pair apart down to `depth` times the smaller radius.
