@@ -136,7 +136,15 @@ pub(crate) struct CsvFile {
 }
 
 impl CsvFile {
-    pub(crate) fn open(path: &Path, file: std::fs::File) -> std::io::Result<Self> {
+    /// Opens `path` for appending rows: a fresh run (`fresh`) starts it empty, a resumed one
+    /// appends to what is there.
+    pub(crate) fn open(path: &Path, fresh: bool) -> std::io::Result<Self> {
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .write(true)
+            .append(!fresh)
+            .truncate(fresh)
+            .open(path)?;
         let end = file.metadata()?.len();
         let mut cuts = csv_cut();
         cuts.push(CsvCut {
@@ -333,15 +341,9 @@ impl Trajectory {
             }
             return Ok(Trajectory::Vtk(series));
         }
-        // A fresh run starts the file; a resumed one appends to it.
-        let file = std::fs::OpenOptions::new()
-            .create(true)
-            .write(true)
-            .append(!fresh)
-            .truncate(fresh)
-            .open(path)
+        let file = CsvFile::open(path, fresh)
             .map_err(|e| Failure::runtime(format!("cannot open {}: {e}", path.display())))?;
-        let mut w = BufWriter::with_capacity(1 << 16, CsvFile::open(path, file).map_err(io)?);
+        let mut w = BufWriter::with_capacity(1 << 16, file);
         if fresh {
             writeln!(w, "{}", trajectory_header(V::DIM)).map_err(io)?;
             write_frame(&mut w, world).map_err(io)?;

@@ -272,14 +272,24 @@ impl<V: Vector> Row<V> {
     }
 }
 
-/// This step's particle-particle collisions and collisional virial `sum J_ij . r_ij` over
-/// `rows` (in row order, so the same rows give the same bits).
-pub(crate) fn tally<V: Vector>(rows: &[Row<V>]) -> (u64, f64) {
-    rows.iter().fold((0, 0.0), |(collisions, virial), row| {
-        (
-            collisions + row.collided() as u64,
-            virial + row.delivered * row.distance,
-        )
+/// What a step's rows add up to, in one pass (row order, so the same rows give the same
+/// bits).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct RowTally {
+    /// Rows whose pair overlapped at the start of the velocity phase.
+    pub touching: u64,
+    /// Particle-particle collisions (see [`Row::collided`]).
+    pub collisions: u64,
+    /// The collisional virial `sum J_ij . r_ij`.
+    pub virial: f64,
+}
+
+/// Adds up `rows` (see [`RowTally`]).
+pub(crate) fn tally<V: Vector>(rows: &[Row<V>]) -> RowTally {
+    rows.iter().fold(RowTally::default(), |t, row| RowTally {
+        touching: t.touching + row.touching as u64,
+        collisions: t.collisions + row.collided() as u64,
+        virial: t.virial + row.delivered * row.distance,
     })
 }
 

@@ -877,10 +877,11 @@ impl<V: Vector> Phases for World<V> {
             self.all_asleep = !self.store.is_empty() && self.islands.count == self.store.len();
         }
         // (all asleep: everything is at rest, no collision, no virial, no thermal motion)
+        let rows = solver::tally(&self.rows);
         let (collisions, virial) = if self.all_asleep {
             (0, 0.0)
         } else {
-            solver::tally(&self.rows)
+            (rows.collisions, rows.virial)
         };
         if self.tally.observing {
             let thermal = if self.all_asleep {
@@ -898,7 +899,7 @@ impl<V: Vector> Phases for World<V> {
         }
         StepStats {
             asleep: self.islands.count,
-            contacts: self.rows.iter().filter(|r| r.touching).count(),
+            contacts: rows.touching as usize,
             plane_contacts: self.plane_rows.iter().filter(|r| r.touching).count(),
             velocity_iterations: solve.iterations,
             responses: solve.responses,

@@ -20,13 +20,7 @@ pub struct ObservationFile {
 impl ObservationFile {
     /// Opens `path`: a fresh run (`fresh`) starts it with the header, a resumed one appends.
     pub fn open(path: &Path, fresh: bool) -> std::io::Result<Self> {
-        let file = std::fs::OpenOptions::new()
-            .create(true)
-            .write(true)
-            .append(!fresh)
-            .truncate(fresh)
-            .open(path)?;
-        let mut out = BufWriter::new(CsvFile::open(path, file)?);
+        let mut out = BufWriter::new(CsvFile::open(path, fresh)?);
         if fresh {
             writeln!(out, "{HEADER}")?;
         }

@@ -1008,12 +1008,14 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
                 s.config.dt,
             );
         }
-        let touching = s.rows.iter().filter(|r| r.touching).count() as u64;
+        let rows = crate::solver::tally(&s.rows);
         let on_planes = s.plane_rows.iter().filter(|r| r.touching).count() as u64;
-        let (collisions, _) = crate::solver::tally(&s.rows);
-        let counts = self
-            .link
-            .sum(&[touching, on_planes, s.islands.count as u64, collisions]);
+        let counts = self.link.sum(&[
+            rows.touching,
+            on_planes,
+            s.islands.count as u64,
+            rows.collisions,
+        ]);
         StepStats {
             asleep: counts[2] as usize,
             contacts: counts[0] as usize,
