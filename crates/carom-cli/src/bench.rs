@@ -90,6 +90,10 @@ struct Measured {
     bytes_per_particle: f64,
     peak_rss_bytes: u64,
     setup_seconds: f64,
+    /// Milliseconds per timed step in each phase of the step (see `carom_engine::PhaseTimes`).
+    phases_ms: Vec<(String, f64)>,
+    /// The streaming floor for this many particles, ns per particle (see `crate::floor`).
+    floor_ns_per_particle: f64,
 }
 
 #[derive(Serialize)]
@@ -468,6 +472,7 @@ fn print_table(report: &Report) {
             r.contacts_per_step,
             r.bytes_per_particle
         );
+        print_phases(r);
         if r.group == "piles" {
             println!(
                 "{:<44} capped {}/{} steps, end: max overlap {:.3}% r, v_rms {:.4}",
@@ -512,6 +517,28 @@ fn print_table(report: &Report) {
             );
         }
     }
+}
+
+/// A case's phase breakdown and its ratio to the streaming floor, under its row of the table.
+fn print_phases(r: &Measured) {
+    let phases: Vec<String> = r
+        .phases_ms
+        .iter()
+        .filter(|(_, ms)| *ms > 0.0)
+        .map(|(name, ms)| {
+            format!(
+                "{name} {:.0}%",
+                100.0 * ms / r.ms_per_step.max(f64::MIN_POSITIVE)
+            )
+        })
+        .collect();
+    println!(
+        "{:<44} floor {:.2} ns/particle: {:.0}x; {}",
+        "",
+        r.floor_ns_per_particle,
+        r.ns_per_particle_step / r.floor_ns_per_particle.max(f64::MIN_POSITIVE),
+        phases.join(", ")
+    );
 }
 
 /// Peak resident memory of this process so far, from /proc.
@@ -560,6 +587,7 @@ fn measure<V: Vector>(
             world.step();
         }
         let setup_seconds = started.elapsed().as_secs_f64();
+        world.reset_phase_times();
         let t = Instant::now();
         for _ in 0..case.steps {
             let stats = world.step();
@@ -573,6 +601,14 @@ fn measure<V: Vector>(
     let end_v_rms = (2.0 * world.kinetic_energy() / mass.max(f64::MIN_POSITIVE)).sqrt();
     let steps = case.steps.max(1) as f64;
     let peak = peak_rss_bytes();
+    let phases = world.phase_times();
+    let phases_ms = phases
+        .phases()
+        .iter()
+        .map(|(name, time)| (name.to_string(), time.as_secs_f64() * 1e3 / steps))
+        .collect();
+    // (after the case, on the same pool: the floor's buffers must not count in its peak)
+    let floor_ns_per_particle = rayon::scope(|_| crate::floor::streaming_floor::<V>(n));
     Ok(Measured {
         group: case.group.clone(),
         name: case.name.clone(),
@@ -590,5 +626,7 @@ fn measure<V: Vector>(
         bytes_per_particle: peak as f64 / n.max(1) as f64,
         peak_rss_bytes: peak,
         setup_seconds,
+        phases_ms,
+        floor_ns_per_particle,
     })
 }

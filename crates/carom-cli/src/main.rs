@@ -2,6 +2,7 @@
 
 mod bench;
 mod cluster;
+mod floor;
 mod render;
 mod run;
 mod session;

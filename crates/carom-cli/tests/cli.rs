@@ -431,7 +431,46 @@ fn bench_quick_measures_every_case() {
     ]);
     let table = String::from_utf8(out.stdout).unwrap();
     assert!(table.contains("grid 100x100 is"), "{table}");
+    // every case: its streaming floor, the ratio to it and where the step's time went
+    let breakdowns = table
+        .lines()
+        .filter(|l| l.contains("ns/particle: "))
+        .count();
+    assert!(breakdowns > 0, "{table}");
+    assert!(
+        table.contains("velocity") && table.contains("broad phase"),
+        "{table}"
+    );
     let text = std::fs::read_to_string(&json).unwrap();
+    let report: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for case in report["results"].as_array().unwrap() {
+        assert!(
+            case["floor_ns_per_particle"].as_f64().unwrap() > 0.0,
+            "{case}"
+        );
+        let phases = case["phases_ms"].as_array().unwrap();
+        let names: Vec<&str> = phases.iter().map(|p| p[0].as_str().unwrap()).collect();
+        assert_eq!(
+            names,
+            [
+                "sort",
+                "broad phase",
+                "rows",
+                "velocity",
+                "motion",
+                "position",
+                "bookkeeping"
+            ]
+        );
+        // the phases cover the step: together within the timed steps' wall time
+        let sum: f64 = phases.iter().map(|p| p[1].as_f64().unwrap()).sum();
+        let step = case["ms_per_step"].as_f64().unwrap();
+        assert!(
+            sum > 0.0 && sum <= step * 1.01 + 1e-3,
+            "phases {sum} ms of {step} ms: {case}"
+        );
+    }
+
     for key in [
         "\"machine\"",
         "\"ms_per_step\"",

@@ -59,6 +59,7 @@ pub mod sleep;
 pub mod solver;
 pub mod step;
 pub mod theory;
+pub mod timing;
 pub mod vector;
 pub mod world;
 
@@ -74,5 +75,6 @@ pub use periodic::Periodic;
 pub use plane::Plane;
 pub use sleep::SleepSettings;
 pub use solver::SolverSettings;
+pub use timing::PhaseTimes;
 pub use vector::Vector;
 pub use world::{Snapshot, World, WorldBuilder, WorldConfig};

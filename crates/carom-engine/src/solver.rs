@@ -37,6 +37,7 @@ use crate::response::{collide, contact_normal, is_overlapping, split_normal_tang
 use crate::schedule::{Blocks, Change, Exchange, PlaneContact, Visit};
 use crate::vector::Vector;
 use rayon::prelude::*;
+use std::time::Instant;
 
 /// With the lecture's rule alone, the position phase leaves overlapping pairs this fraction of
 /// the smaller radius deep, so a contact is still detected (`distance < r1 + r2`) on the next
@@ -142,6 +143,9 @@ pub struct VelocitySolve {
     pub responses: u64,
     /// True when the last sweep still changed something (the cap was hit).
     pub capped: bool,
+    /// Wall-clock time spent on gravity, the moves and re-placing rows (see
+    /// [`crate::PhaseTimes::motion`]); the rest of the phase is the sweeps'.
+    pub motion: std::time::Duration,
 }
 
 /// One contact candidate's solver data, at the same index as its pair.
@@ -634,7 +638,9 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
                 break;
             }
         } else {
+            let clock = Instant::now();
             accelerate(parallel, &mut velocity[..own], asleep, gravity * h);
+            solve.motion += clock.elapsed();
             if !settings.lecture_pairs() || !elastic_planes {
                 warm_start(exchange, velocity, c);
             }
@@ -658,14 +664,18 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         solve.iterations += sweeps;
         solve.capped |= capped;
         if pass == Pass::Relax {
+            let clock = Instant::now();
             advance_positions(parallel, &mut position[..own], &velocity[..own], asleep, h);
             if substeps > 1 {
                 place(exchange, position, c, h);
             }
+            solve.motion += clock.elapsed();
         }
     }
     if planes_in_move {
+        let clock = Instant::now();
         let bounces = bounce_in_move(&mut position[..own], &mut velocity[..own], c, gravity, dt);
+        solve.motion += clock.elapsed();
         solve.responses += exchange.total(bounces);
     }
     exchange.settle_rows(c.blocks, c.rows);

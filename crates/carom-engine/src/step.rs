@@ -12,6 +12,7 @@
 
 use crate::diagnostics::StepStats;
 use crate::solver::VelocitySolve;
+use crate::timing::{Lap, PhaseTimes};
 
 /// What a stepper does in each phase of [`advance`].
 pub(crate) trait Phases {
@@ -32,14 +33,33 @@ pub(crate) trait Phases {
     fn remember(&mut self);
     /// Counts the step and reports it.
     fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats;
+    /// Where the stepper's time went; `find_contacts` adds its `rows` itself.
+    fn times(&mut self) -> &mut PhaseTimes;
 }
 
 /// Advances `stepper` by one time step.
 pub(crate) fn advance(stepper: &mut impl Phases) -> StepStats {
+    let mut clock = Lap::start();
     stepper.sort_along_space();
+    let sort = clock.lap();
+    let rows_before = stepper.times().rows;
     stepper.find_contacts();
+    let find = clock.lap();
     let solve = stepper.integrate();
+    let integrate = clock.lap();
     let max_overlap = stepper.separate();
+    let position = clock.lap();
     stepper.remember();
-    stepper.finish(solve, max_overlap)
+    let stats = stepper.finish(solve, max_overlap);
+    let bookkeeping = clock.lap();
+    let times = stepper.times();
+    times.steps += 1;
+    times.sort += sort;
+    // (find_contacts timed its rows; the broad phase is the rest)
+    times.broad_phase += find.saturating_sub(times.rows - rows_before);
+    times.motion += solve.motion;
+    times.velocity += integrate.saturating_sub(solve.motion);
+    times.position += position;
+    times.bookkeeping += bookkeeping;
+    stats
 }

@@ -37,9 +37,11 @@ use crate::solver::{
     self, Contacts, Moving, PlaneRow, Row, SolverSettings, VelocitySolve, WorkList,
 };
 use crate::step::{self, Phases};
+use crate::timing::PhaseTimes;
 use crate::vector::Vector;
 use rayon::prelude::*;
 use std::cell::OnceCell;
+use std::time::Instant;
 
 /// Default cap on velocity sweeps per step.
 pub const DEFAULT_VELOCITY_ITERATIONS: u32 = 32;
@@ -423,6 +425,7 @@ impl<V: Vector> WorldBuilder<V> {
             start: Vec::new(),
             all_asleep: false,
             asleep_overlap: 0.0,
+            phase_times: PhaseTimes::default(),
             unsorted_ids: Vec::new(),
             blocks: Blocks::default(),
             stamps: Vec::new(),
@@ -548,6 +551,8 @@ pub struct World<V: Vector> {
     all_asleep: bool,
     /// The deepest overlap in the sleeping islands (as in [`StepStats::max_overlap`]).
     asleep_overlap: f64,
+    /// Where the steps' time went (see [`PhaseTimes`]).
+    phase_times: PhaseTimes,
     /// Ids by slot before a sort (scratch).
     unsorted_ids: Vec<u32>,
     blocks: Blocks,
@@ -762,6 +767,7 @@ impl<V: Vector> Phases for World<V> {
             parallel,
             0,
         );
+        let rows_started = Instant::now();
         let p = &self.store;
         let periodic = self.periodic;
         solver::prepare_rows(&mut self.rows, &self.pairs, parallel, |(i, j)| {
@@ -799,6 +805,7 @@ impl<V: Vector> Phases for World<V> {
             &self.plane_contacts,
             &mut self.plane_rows,
         );
+        self.phase_times.rows += rows_started.elapsed();
     }
 
     fn integrate(&mut self) -> VelocitySolve {
@@ -858,6 +865,10 @@ impl<V: Vector> Phases for World<V> {
             |k| plane_rows[k].kept,
             sleeps,
         );
+    }
+
+    fn times(&mut self) -> &mut PhaseTimes {
+        &mut self.phase_times
     }
 
     fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats {
@@ -922,6 +933,17 @@ impl<V: Vector> World<V> {
     /// Advances the world by one time step (see [`crate::step`]).
     pub fn step(&mut self) -> StepStats {
         step::advance(self)
+    }
+
+    /// Where the steps' wall-clock time went, phase by phase, since the world was built or
+    /// [`World::reset_phase_times`] (see [`PhaseTimes`]).
+    pub fn phase_times(&self) -> PhaseTimes {
+        self.phase_times
+    }
+
+    /// Starts the phase times from zero (say, after a warm-up).
+    pub fn reset_phase_times(&mut self) {
+        self.phase_times = PhaseTimes::default();
     }
 
     fn parallel(&self) -> bool {

@@ -18,6 +18,7 @@ use crate::schedule::{Blocks, Exchange, PlaneContact};
 use crate::sleep;
 use crate::solver::{self, Contacts, Moving, PlaneRow, Row, VelocitySolve, WorkList};
 use crate::step::{self, Phases};
+use crate::timing::PhaseTimes;
 use crate::vector::Vector;
 use crate::world::{block_size, sort_layout, Snapshot, World, WorldConfig, REORDER_INTERVAL};
 
@@ -92,6 +93,8 @@ pub struct Subdomain<V: Vector> {
     start: Vec<V>,
     /// The deepest overlap in this rank's sleeping contacts (see `World`'s).
     asleep_overlap: f64,
+    /// Where this process's steps' time went (its share only; see [`PhaseTimes`]).
+    phase_times: PhaseTimes,
     leftovers: Leftovers<V>,
     blocks: Blocks,
     /// The sweep clock of the work lists (unused: a subdomain sweeps every contact).
@@ -248,6 +251,7 @@ impl<V: Vector> Subdomain<V> {
             islands: SplitIslands::default(),
             start: Vec::new(),
             asleep_overlap: 0.0,
+            phase_times: PhaseTimes::default(),
             leftovers: Leftovers::default(),
             blocks: Blocks::default(),
             clock: 0,
@@ -991,6 +995,10 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
             |k| plane_rows[k].kept,
             sleeps,
         );
+    }
+
+    fn times(&mut self) -> &mut PhaseTimes {
+        &mut self.sub.phase_times
     }
 
     fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats {
