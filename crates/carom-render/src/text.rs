@@ -1,17 +1,10 @@
-//! Text with `ab_glyph` and the DejaVu Sans font bundled with `carom-plot`.
+//! Text with `ab_glyph` and the DejaVu Sans font that `carom-plot` owns ([`carom_plot::FONT`]).
 
 use ab_glyph::{point, Font, FontRef, PxScale, ScaleFont};
-use std::sync::OnceLock;
-
-/// DejaVu Sans (see `crates/carom-plot/fonts/`).
-const FONT: &[u8] = include_bytes!("../../carom-plot/fonts/DejaVuSans.ttf");
 
 /// The parsed font, or `None` if it does not parse (then no text is drawn).
 pub(crate) fn font() -> Option<&'static FontRef<'static>> {
-    static PARSED: OnceLock<Option<FontRef<'static>>> = OnceLock::new();
-    PARSED
-        .get_or_init(|| FontRef::try_from_slice(FONT).ok())
-        .as_ref()
+    carom_plot::font()
 }
 
 /// Height of a capital letter at font size `size`, pixels.
