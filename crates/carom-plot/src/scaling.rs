@@ -6,6 +6,7 @@ use crate::{
     DEFAULT_WIDTH, FAMILY,
 };
 use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
+use plotters::coord::CoordTranslate;
 use plotters::element::{Drawable, PointCollection};
 use plotters::prelude::*;
 use plotters_backend::{BackendCoord, DrawingErrorKind};
@@ -385,6 +386,33 @@ where
         .draw()
         .map_err(|e| err(&e))?;
 
+    lines(&mut chart, series, &px)?;
+
+    chart
+        .configure_series_labels()
+        .position(corner)
+        .margin(px(12.0))
+        .legend_area_size(px(40.0))
+        .label_font((FAMILY, px(15.0)).into_font().color(&text))
+        .background_style(WHITE.mix(0.92))
+        .border_style(RGBColor(160, 160, 160))
+        .draw()
+        .map_err(|e| err(&e))?;
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// Every series: its line, a marker at each point, and its legend entry.
+fn lines<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    series: &[Series],
+    px: &dyn Fn(f64) -> i32,
+) -> Result<(), PlotError>
+where
+    DB: DrawingBackend + 'a,
+    CT: CoordTranslate<From = (f64, f64)>,
+{
+    let err = |e: &dyn std::fmt::Display| PlotError::Draw(e.to_string());
     let r = px(5.0);
     let line_width = px(2.0) as u32;
     for (i, s) in series.iter().enumerate() {
@@ -420,17 +448,5 @@ where
             }))
             .map_err(|e| err(&e))?;
     }
-
-    chart
-        .configure_series_labels()
-        .position(corner)
-        .margin(px(12.0))
-        .legend_area_size(px(40.0))
-        .label_font((FAMILY, px(15.0)).into_font().color(&text))
-        .background_style(WHITE.mix(0.92))
-        .border_style(RGBColor(160, 160, 160))
-        .draw()
-        .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
     Ok(())
 }

@@ -238,102 +238,127 @@ pub(crate) fn frame(pixmap: &mut Pixmap, frame: &Frame, options: &RenderOptions)
     let colour = |id: usize| colormap(position(options.colouring.value(frame, id), range));
 
     if dim == 2 {
-        let proj = Projection::flat(bounds, area);
-        let p2 = |x: [f64; 3]| proj.project(DVec3::from_array(x)).map(|(x, y, _)| (x, y));
-        if let Some(d) = &frame.domain {
-            if let (Some(a), Some(c)) = (p2(d.min), p2(d.max)) {
-                let pts = [a, (c.0, a.1), c, (a.0, c.1)];
-                polyline(pixmap, &pts, true, BOX, 255, line);
-            }
-        }
-        for plane in &frame.planes {
-            if is_domain_face(plane, frame.domain.as_ref(), 2) {
-                continue;
-            }
-            let Some(p) = p2(plane.point) else { continue };
-            // Along the plane: the normal turned a quarter; pixels have y down.
-            let t = DVec2::new(plane.normal[0], plane.normal[1])
-                .perp()
-                .normalize_or_zero();
-            let reach = (p.0 - w / 2.0).hypot(p.1 - h / 2.0) + w + h;
-            let a = (p.0 - t.x * reach, p.1 + t.y * reach);
-            let b = (p.0 + t.x * reach, p.1 - t.y * reach);
-            if let Some((a, b)) = clip(a, b, visible) {
-                polyline(pixmap, &[a, b], false, PLANE, 255, line * 1.3);
-            }
-        }
-        let (pw, ph) = (pixmap.width() as usize, pixmap.height() as usize);
-        let data = pixmap.data_mut();
-        for id in 0..frame.positions.len() {
-            if let Some((x, y, _)) = proj.project(DVec3::from_array(frame.positions[id])) {
-                let r = proj.radius(frame.radii[id], 0.0);
-                disc(data, pw, ph, x, y, r, colour(id), Shade::Flat);
-            }
-        }
+        flat(pixmap, frame, Projection::flat(bounds, area), visible, line, &colour);
     } else {
         let proj = Projection::perspective(bounds, &options.camera, area);
-        let p2 = |x: DVec3| proj.project(x).map(|(x, y, _)| (x, y));
-        // The box's edges: those on a face turned towards the camera are in front of every
-        // particle inside, so they are drawn after the particles, the others before.
-        let edges = |front: bool, pixmap: &mut Pixmap| {
-            let Some(d) = &frame.domain else { return };
-            let eye = proj.eye();
-            let c = corners(d);
-            let facing = |axis: usize, max: bool| {
-                if max {
-                    eye[axis] > d.max[axis]
-                } else {
-                    eye[axis] < d.min[axis]
-                }
-            };
-            for i in 0..8usize {
-                for a in 0..3 {
-                    let j = i | 1 << a;
-                    if j == i {
-                        continue;
-                    }
-                    let (b, e) = ((a + 1) % 3, (a + 2) % 3);
-                    let is_front = facing(b, i >> b & 1 == 1) || facing(e, i >> e & 1 == 1);
-                    if is_front == front {
-                        if let (Some(p), Some(q)) = (p2(c[i]), p2(c[j])) {
-                            polyline(pixmap, &[p, q], false, BOX, 255, line);
-                        }
-                    }
-                }
-            }
-        };
-        edges(false, pixmap);
-        for plane in &frame.planes {
-            if is_domain_face(plane, frame.domain.as_ref(), 3) {
-                continue;
-            }
-            let outline = plane_in_box(plane, &bounds);
-            let pts: Option<Vec<_>> = outline.iter().map(|&x| p2(x)).collect();
-            if let Some(pts) = pts.filter(|p| p.len() >= 3) {
-                polyline(pixmap, &pts, true, PLANE, 255, line * 1.3);
-            }
-        }
-        let mut order: Vec<(f64, f64, f64, u32)> = (0..frame.positions.len())
-            .filter_map(|id| {
-                proj.project(DVec3::from_array(frame.positions[id]))
-                    .map(|(x, y, z)| (z, x, y, id as u32))
-            })
-            .collect();
-        // Far first; the sort is stable, so equal depths keep id order.
-        order.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let (pw, ph) = (pixmap.width() as usize, pixmap.height() as usize);
-        let data = pixmap.data_mut();
-        for (z, x, y, id) in order {
-            let id = id as usize;
-            let r = proj.radius(frame.radii[id], z);
-            disc(data, pw, ph, x, y, r, colour(id), Shade::Sphere);
-        }
-        edges(true, pixmap);
+        perspective(pixmap, frame, proj, &bounds, line, &colour);
     }
 
     if options.legend {
         legend(pixmap, frame, options, range, font_px, legend_h, margin);
     }
+}
+
+/// The 2D picture: the domain's outline, planes as lines across the view, flat discs.
+fn flat(
+    pixmap: &mut Pixmap,
+    frame: &Frame,
+    proj: Projection,
+    visible: Rect,
+    line: f64,
+    colour: &dyn Fn(usize) -> [f32; 3],
+) {
+    let (w, h) = (pixmap.width() as f64, pixmap.height() as f64);
+    let p2 = |x: [f64; 3]| proj.project(DVec3::from_array(x)).map(|(x, y, _)| (x, y));
+    if let Some(d) = &frame.domain {
+        if let (Some(a), Some(c)) = (p2(d.min), p2(d.max)) {
+            let pts = [a, (c.0, a.1), c, (a.0, c.1)];
+            polyline(pixmap, &pts, true, BOX, 255, line);
+        }
+    }
+    for plane in &frame.planes {
+        if is_domain_face(plane, frame.domain.as_ref(), 2) {
+            continue;
+        }
+        let Some(p) = p2(plane.point) else { continue };
+        // Along the plane: the normal turned a quarter; pixels have y down.
+        let t = DVec2::new(plane.normal[0], plane.normal[1])
+            .perp()
+            .normalize_or_zero();
+        let reach = (p.0 - w / 2.0).hypot(p.1 - h / 2.0) + w + h;
+        let a = (p.0 - t.x * reach, p.1 + t.y * reach);
+        let b = (p.0 + t.x * reach, p.1 - t.y * reach);
+        if let Some((a, b)) = clip(a, b, visible) {
+            polyline(pixmap, &[a, b], false, PLANE, 255, line * 1.3);
+        }
+    }
+    let (pw, ph) = (pixmap.width() as usize, pixmap.height() as usize);
+    let data = pixmap.data_mut();
+    for id in 0..frame.positions.len() {
+        if let Some((x, y, _)) = proj.project(DVec3::from_array(frame.positions[id])) {
+            let r = proj.radius(frame.radii[id], 0.0);
+            disc(data, pw, ph, x, y, r, colour(id), Shade::Flat);
+        }
+    }
+}
+
+/// The 3D picture: the box's back edges, planes' outlines in the box, spheres far to near,
+/// the box's front edges.
+fn perspective(
+    pixmap: &mut Pixmap,
+    frame: &Frame,
+    proj: Projection,
+    bounds: &Bounds,
+    line: f64,
+    colour: &dyn Fn(usize) -> [f32; 3],
+) {
+    let p2 = |x: DVec3| proj.project(x).map(|(x, y, _)| (x, y));
+    // The box's edges: those on a face turned towards the camera are in front of every
+    // particle inside, so they are drawn after the particles, the others before.
+    let edges = |front: bool, pixmap: &mut Pixmap| {
+        let Some(d) = &frame.domain else { return };
+        let eye = proj.eye();
+        let c = corners(d);
+        let facing = |axis: usize, max: bool| {
+            if max {
+                eye[axis] > d.max[axis]
+            } else {
+                eye[axis] < d.min[axis]
+            }
+        };
+        for i in 0..8usize {
+            for a in 0..3 {
+                let j = i | 1 << a;
+                if j == i {
+                    continue;
+                }
+                let (b, e) = ((a + 1) % 3, (a + 2) % 3);
+                let is_front = facing(b, i >> b & 1 == 1) || facing(e, i >> e & 1 == 1);
+                if is_front == front {
+                    if let (Some(p), Some(q)) = (p2(c[i]), p2(c[j])) {
+                        polyline(pixmap, &[p, q], false, BOX, 255, line);
+                    }
+                }
+            }
+        }
+    };
+    edges(false, pixmap);
+    for plane in &frame.planes {
+        if is_domain_face(plane, frame.domain.as_ref(), 3) {
+            continue;
+        }
+        let outline = plane_in_box(plane, bounds);
+        let pts: Option<Vec<_>> = outline.iter().map(|&x| p2(x)).collect();
+        if let Some(pts) = pts.filter(|p| p.len() >= 3) {
+            polyline(pixmap, &pts, true, PLANE, 255, line * 1.3);
+        }
+    }
+    let mut order: Vec<(f64, f64, f64, u32)> = (0..frame.positions.len())
+        .filter_map(|id| {
+            proj.project(DVec3::from_array(frame.positions[id]))
+                .map(|(x, y, z)| (z, x, y, id as u32))
+        })
+        .collect();
+    // Far first; the sort is stable, so equal depths keep id order.
+    order.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let (pw, ph) = (pixmap.width() as usize, pixmap.height() as usize);
+    let data = pixmap.data_mut();
+    for (z, x, y, id) in order {
+        let id = id as usize;
+        let r = proj.radius(frame.radii[id], z);
+        disc(data, pw, ph, x, y, r, colour(id), Shade::Sphere);
+    }
+    edges(true, pixmap);
 }
 
 /// The polygon where `plane` cuts the box `b` (empty when it misses), in order around it.

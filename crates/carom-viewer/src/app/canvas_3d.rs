@@ -6,7 +6,8 @@ use super::ViewerApp;
 use crate::render;
 use crate::view::{self, OrbitCamera, Projected};
 use carom_engine::glam::{DVec2, DVec3};
-use eframe::egui::{Color32, Pos2, Shape, Stroke, Vec2};
+use carom_engine::grid::GridLayout;
+use eframe::egui::{self, Color32, Pos2, Shape, Stroke, Vec2};
 
 impl ViewerApp {
     pub(super) fn canvas_3d(&mut self, scene: &Scene<'_>, input: Input) {
@@ -21,25 +22,7 @@ impl ViewerApp {
                 .map(|q| pos(q.screen))
                 .unwrap_or(Pos2::new(f32::NAN, f32::NAN))
         };
-        let wire = |lo: DVec3, hi: DVec3, stroke: Stroke| {
-            for i in 0..8u32 {
-                for axis in 0..3 {
-                    if i & (1 << axis) == 0 {
-                        let j = i | (1 << axis);
-                        let c = |k: u32| {
-                            DVec3::new(
-                                if k & 1 == 0 { lo.x } else { hi.x },
-                                if k & 2 == 0 { lo.y } else { hi.y },
-                                if k & 4 == 0 { lo.z } else { hi.z },
-                            )
-                        };
-                        if let (Some(a), Some(b)) = (project(c(i)), project(c(j))) {
-                            painter.line_segment([pos(a.screen), pos(b.screen)], stroke);
-                        }
-                    }
-                }
-            }
-        };
+        let wire = |lo: DVec3, hi: DVec3, stroke: Stroke| wire(painter, &project, lo, hi, stroke);
         if let Some((lo, hi)) = s.domain {
             wire(lo, hi, Stroke::new(1.5, Color32::from_gray(200)));
         }
@@ -53,21 +36,7 @@ impl ViewerApp {
             )
         };
         if self.show_grid && layout.cells[0] <= 200 && layout.cells[2] <= 200 {
-            // the grid's cells on the floor of the box
-            let [cx, _, cz] = layout.cells;
-            let y = o[1];
-            for i in 0..=cx {
-                let x = o[0] + i as f64 * cs[0];
-                let z1 = o[2] + cz as f64 * cs[2];
-                let a = [to(DVec3::new(x, y, o[2])), to(DVec3::new(x, y, z1))];
-                painter.line_segment(a, Stroke::new(1.0, GRID));
-            }
-            for k in 0..=cz {
-                let z = o[2] + k as f64 * cs[2];
-                let x1 = o[0] + cx as f64 * cs[0];
-                let a = [to(DVec3::new(o[0], y, z)), to(DVec3::new(x1, y, z))];
-                painter.line_segment(a, Stroke::new(1.0, GRID));
-            }
+            floor_grid(painter, &layout, &to);
         }
 
         let projected: Vec<Option<Projected>> = s.positions.iter().map(|&p| project(p)).collect();
@@ -146,5 +115,51 @@ impl ViewerApp {
         }
         scene.painter.add(Shape::mesh(mesh));
         scene.painter.add(Shape::mesh(marked));
+    }
+}
+
+/// The edges of the box `lo`..`hi`, those with both ends in front of the camera.
+fn wire(
+    painter: &egui::Painter,
+    project: &dyn Fn(DVec3) -> Option<Projected>,
+    lo: DVec3,
+    hi: DVec3,
+    stroke: Stroke,
+) {
+    let corner = |k: u32| {
+        DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    };
+    for i in 0..8u32 {
+        for axis in 0..3 {
+            if i & (1 << axis) == 0 {
+                let j = i | (1 << axis);
+                if let (Some(a), Some(b)) = (project(corner(i)), project(corner(j))) {
+                    painter.line_segment([pos(a.screen), pos(b.screen)], stroke);
+                }
+            }
+        }
+    }
+}
+
+/// The grid's cells on the floor of the box (its lowest y).
+fn floor_grid(painter: &egui::Painter, layout: &GridLayout, to: &dyn Fn(DVec3) -> Pos2) {
+    let (o, cs) = (layout.origin, layout.cell_size);
+    let [cx, _, cz] = layout.cells;
+    let y = o[1];
+    for i in 0..=cx {
+        let x = o[0] + i as f64 * cs[0];
+        let z1 = o[2] + cz as f64 * cs[2];
+        let a = [to(DVec3::new(x, y, o[2])), to(DVec3::new(x, y, z1))];
+        painter.line_segment(a, Stroke::new(1.0, GRID));
+    }
+    for k in 0..=cz {
+        let z = o[2] + k as f64 * cs[2];
+        let x1 = o[0] + cx as f64 * cs[0];
+        let a = [to(DVec3::new(o[0], y, z)), to(DVec3::new(x1, y, z))];
+        painter.line_segment(a, Stroke::new(1.0, GRID));
     }
 }

@@ -3,7 +3,7 @@
 use super::ViewerApp;
 use crate::sim::Snapshot;
 use eframe::egui::{self, Color32};
-use egui_plot::{Legend, Line, Plot, PlotPoints};
+use egui_plot::{Corner, Legend, Line, Plot, PlotPoints};
 use std::collections::VecDeque;
 
 /// Samples kept per series: the plots show the last this many snapshots.
@@ -70,7 +70,13 @@ impl ViewerApp {
                 p.line(line("ms per step", &h.ms, Color32::from_rgb(255, 200, 60)));
             });
             plot("energy", w)
-                .legend(Legend::default().position(egui_plot::Corner::LeftBottom))
+                .legend(
+                    Legend::default()
+                        .position(Corner::LeftTop)
+                        .text_style(egui::TextStyle::Small)
+                        .background_alpha(0.6)
+                        .follow_insertion_order(true),
+                )
                 .show(ui, |p| {
                     let kinetic = Color32::from_rgb(250, 220, 80);
                     p.line(line("kinetic", &h.kinetic, kinetic));
