@@ -375,6 +375,7 @@ where
         .configure_mesh()
         .bold_line_style(RGBColor(200, 200, 200).stroke_width(1))
         .light_line_style(RGBColor(235, 235, 235).stroke_width(1))
+        .y_max_light_lines(1)
         .axis_style(RGBColor(80, 80, 80).stroke_width(1))
         .x_label_formatter(&format_tick)
         .y_label_formatter(&format_tick)
