@@ -5,6 +5,7 @@ use crate::{
     encode_png, font, register_font, PlotError, PlotOptions, Series, YScale, DEFAULT_HEIGHT,
     DEFAULT_WIDTH, FAMILY,
 };
+use plotters::coord::combinators::{BindKeyPoints, LogCoord, WithKeyPoints};
 use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
 use plotters::coord::CoordTranslate;
 use plotters::element::{Drawable, PointCollection};
@@ -47,10 +48,10 @@ pub fn scaling_plot_png_with(
         x: x_label,
         y: y_label,
     };
-    let x = log_range(bounds(series, |p| p.0)).log_scale();
+    let x = log_axis(bounds(series, |p| p.0));
     let y = bounds(series, |p| p.1);
     if log_y {
-        draw(&mut rgb, (w, h), series, &labels, x, log_range(y).log_scale())?;
+        draw(&mut rgb, (w, h), series, &labels, x, log_axis(y))?;
     } else {
         draw(&mut rgb, (w, h), series, &labels, x, linear_range(y))?;
     }
@@ -131,17 +132,41 @@ fn bounds(series: &[Series], coord: impl Fn(&(f64, f64)) -> f64) -> (f64, f64) {
         })
 }
 
-/// A logarithmic axis' range around `(lo, hi)` (both > 0): padded a little, reaching down to
-/// the power of ten below when it would hold none (so that at least one tick is labelled), and
-/// kept within 10^-150..10^150 (plotters' tick search divides the ends).
-fn log_range((lo, hi): (f64, f64)) -> std::ops::Range<f64> {
+/// A logarithmic axis around `(lo, hi)` (both > 0), padded a little: plotters' log scale,
+/// labelled at 1, 2 and 5 per decade (every decade past four and a half of them, fewer past
+/// twelve) with faint lines at the other mantissas. plotters' own log ticks label every
+/// mantissa of a narrow range and repeat a decade's end ("10k10k").
+fn log_axis((lo, hi): (f64, f64)) -> WithKeyPoints<LogCoord<f64>> {
     let (l0, l1) = (lo.log10(), hi.log10());
     let pad = ((l1 - l0) * 0.05).max(0.15);
-    let (mut la, lb) = ((l0 - pad).max(-150.0), (l1 + pad).min(150.0));
-    if la.ceil() > lb {
-        la = la.floor();
+    // (kept inside f64's normal range, so that the ends are finite and non-zero)
+    let (la, lb) = ((l0 - pad).max(-307.0), (l1 + pad).min(307.0));
+    let (a, b) = (10f64.powf(la), 10f64.powf(lb));
+    let decades = lb - la;
+    let mantissas: &[u32] = if decades <= 4.5 { &[1, 2, 5] } else { &[1] };
+    let every = if decades > 12.0 {
+        (decades / 8.0).ceil() as i32
+    } else {
+        1
+    };
+    let (mut major, mut minor) = (Vec::new(), Vec::new());
+    for e in la.floor() as i32..=lb.ceil() as i32 {
+        for m in 1..10u32 {
+            let v = m as f64 * 10f64.powi(e);
+            if v < a || v > b {
+                continue;
+            }
+            if e.rem_euclid(every) == 0 && mantissas.contains(&m) {
+                major.push(v);
+            } else if every == 1 {
+                minor.push(v);
+            }
+        }
     }
-    10f64.powf(la)..10f64.powf(lb)
+    (a..b)
+        .log_scale()
+        .with_key_points(major)
+        .with_light_points(minor)
 }
 
 /// A linear axis' range around `(lo, hi)`: from zero when every value is non-negative, with
