@@ -172,4 +172,3 @@ pub(crate) fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, PlotErro
     }
     Ok(out)
 }
-

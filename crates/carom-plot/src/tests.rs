@@ -2,8 +2,8 @@
 
 use crate::scaling::{check, format_tick};
 use crate::*;
-use std::path::Path;
 use std::collections::HashSet;
+use std::path::Path;
 
 fn example() -> Vec<Series> {
     let ns = [1e3, 1e4, 1e5, 1e6, 4e6];

@@ -132,7 +132,11 @@ mod tests {
     fn every_colour_stands_out_on_the_background() {
         for k in 0..=100 {
             let c = colormap_rgb8(k as f64 / 100.0);
-            assert!(contrast(c, BACKGROUND) > 3.2, "t = {}: {c:?}", k as f64 / 100.0);
+            assert!(
+                contrast(c, BACKGROUND) > 3.2,
+                "t = {}: {c:?}",
+                k as f64 / 100.0
+            );
         }
         assert_eq!(colormap(f64::NAN), colormap(0.0));
         assert_eq!(colormap(-3.0), colormap(0.0));

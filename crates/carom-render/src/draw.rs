@@ -4,8 +4,8 @@ use crate::colour::{colormap, colour_range, position, BACKGROUND};
 use crate::frame::{Bounds, Frame, FramePlane};
 use crate::text;
 use crate::view::{corners, Projection, Rect};
-use glam::{DVec2, DVec3, Vec3};
 use crate::RenderOptions;
+use glam::{DVec2, DVec3, Vec3};
 use tiny_skia::{Color, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
 const BOX: [u8; 3] = [120, 126, 142];
@@ -238,7 +238,14 @@ pub(crate) fn frame(pixmap: &mut Pixmap, frame: &Frame, options: &RenderOptions)
     let colour = |id: usize| colormap(position(options.colouring.value(frame, id), range));
 
     if dim == 2 {
-        flat(pixmap, frame, Projection::flat(bounds, area), visible, line, &colour);
+        flat(
+            pixmap,
+            frame,
+            Projection::flat(bounds, area),
+            visible,
+            line,
+            &colour,
+        );
     } else {
         let proj = Projection::perspective(bounds, &options.camera, area);
         perspective(pixmap, frame, proj, &bounds, line, &colour);

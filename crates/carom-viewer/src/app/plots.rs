@@ -84,7 +84,11 @@ impl ViewerApp {
                     p.line(line("kinetic + potential", &h.total, total));
                 });
             plot("|momentum|", w).show(ui, |p| {
-                p.line(line("|momentum|", &h.momentum, Color32::from_rgb(120, 230, 140)));
+                p.line(line(
+                    "|momentum|",
+                    &h.momentum,
+                    Color32::from_rgb(120, 230, 140),
+                ));
             });
         });
     }
