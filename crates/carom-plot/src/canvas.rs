@@ -137,29 +137,11 @@ impl<'a> DrawingBackend for Canvas<'a> {
         let baseline = (height as f32 + cap) / 2.0;
         let transform = style.transform();
         let mut pixels = Vec::new();
-        let mut caret = 0f32;
-        let mut previous = None;
-        for c in text.chars() {
-            let id = font.glyph_id(c);
-            if let Some(p) = previous {
-                caret += font.kern(p, id);
+        lay_out(self.font, scale, 0.0, baseline, text, |x, y, coverage| {
+            if coverage > 0.0 {
+                pixels.push((x, y, coverage));
             }
-            previous = Some(id);
-            let glyph = id.with_scale_and_position(scale, point(caret, baseline));
-            caret += font.h_advance(id);
-            if let Some(outline) = self.font.outline_glyph(glyph) {
-                let b = outline.px_bounds();
-                outline.draw(|gx, gy, coverage| {
-                    if coverage > 0.0 {
-                        pixels.push((
-                            b.min.x as i32 + gx as i32,
-                            b.min.y as i32 + gy as i32,
-                            coverage,
-                        ));
-                    }
-                });
-            }
-        }
+        });
         for (x, y, coverage) in pixels {
             let (x, y) = transform.transform(x + dx, y + dy);
             self.inner.draw_pixel(
@@ -172,4 +154,40 @@ impl<'a> DrawingBackend for Canvas<'a> {
         }
         Ok(())
     }
+}
+
+/// Lays `text` out in `font` at `scale` from `x` on `baseline` (pixels, y down): glyphs at
+/// their sub-pixel positions with kerning and side bearings; hands each covered pixel and its
+/// coverage to `pixel`. Returns the advance (width). `carom-render`'s legend text uses it too.
+pub fn lay_out(
+    font: &FontRef<'_>,
+    scale: PxScale,
+    x: f32,
+    baseline: f32,
+    text: &str,
+    mut pixel: impl FnMut(i32, i32, f32),
+) -> f32 {
+    let scaled = font.as_scaled(scale);
+    let mut caret = x;
+    let mut previous = None;
+    for c in text.chars() {
+        let id = scaled.glyph_id(c);
+        if let Some(p) = previous {
+            caret += scaled.kern(p, id);
+        }
+        previous = Some(id);
+        let glyph = id.with_scale_and_position(scale, point(caret, baseline));
+        caret += scaled.h_advance(id);
+        if let Some(outline) = font.outline_glyph(glyph) {
+            let b = outline.px_bounds();
+            outline.draw(|gx, gy, coverage| {
+                pixel(
+                    b.min.x as i32 + gx as i32,
+                    b.min.y as i32 + gy as i32,
+                    coverage,
+                )
+            });
+        }
+    }
+    caret - x
 }

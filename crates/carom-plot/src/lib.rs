@@ -29,6 +29,7 @@ mod scaling;
 #[cfg(test)]
 mod tests;
 
+pub use canvas::lay_out;
 pub use compare::{comparison_plot_png, save_comparison_plot, Comparison};
 pub use scaling::{save_scaling_plot, scaling_plot_png, scaling_plot_png_with};
 
