@@ -3,7 +3,7 @@
 use super::ViewerApp;
 use crate::sim::Snapshot;
 use eframe::egui::{self, Color32};
-use egui_plot::{Corner, Legend, Line, Plot, PlotPoints};
+use egui_plot::{AxisHints, Corner, Legend, Line, Plot, PlotPoints};
 use std::collections::VecDeque;
 
 /// Samples kept per series: the plots show the last this many snapshots.
@@ -99,7 +99,11 @@ fn plot<'a>(title: &str, width: f32) -> Plot<'a> {
     Plot::new(("carom-plot", title.to_string()))
         .width(width)
         .height(HEIGHT)
-        .x_axis_label("t")
+        // egui_plot labels x ticks 60 points apart; a plot a third of the window wide then
+        // showed only "0" of a 0..8 s run
+        .custom_x_axes(vec![AxisHints::new_x()
+            .label("t")
+            .label_spacing(24.0..=40.0)])
         .y_axis_label(title.to_string())
         .allow_zoom(false)
         .allow_drag(false)
