@@ -14,14 +14,6 @@ use plotters_backend::text_anchor::{HPos, VPos};
 use plotters_backend::{
     BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingBackend, DrawingErrorKind,
 };
-use std::sync::OnceLock;
-
-/// The parsed built-in font, or `None` if it does not parse.
-pub(crate) fn font() -> Option<&'static FontRef<'static>> {
-    static FONT: OnceLock<Option<FontRef<'static>>> = OnceLock::new();
-    FONT.get_or_init(|| FontRef::try_from_slice(crate::FONT).ok())
-        .as_ref()
-}
 
 /// [`BitMapBackend`] with this crate's text drawing.
 pub(crate) struct Canvas<'a> {
@@ -145,29 +137,11 @@ impl<'a> DrawingBackend for Canvas<'a> {
         let baseline = (height as f32 + cap) / 2.0;
         let transform = style.transform();
         let mut pixels = Vec::new();
-        let mut caret = 0f32;
-        let mut previous = None;
-        for c in text.chars() {
-            let id = font.glyph_id(c);
-            if let Some(p) = previous {
-                caret += font.kern(p, id);
+        lay_out(self.font, scale, 0.0, baseline, text, |x, y, coverage| {
+            if coverage > 0.0 {
+                pixels.push((x, y, coverage));
             }
-            previous = Some(id);
-            let glyph = id.with_scale_and_position(scale, point(caret, baseline));
-            caret += font.h_advance(id);
-            if let Some(outline) = self.font.outline_glyph(glyph) {
-                let b = outline.px_bounds();
-                outline.draw(|gx, gy, coverage| {
-                    if coverage > 0.0 {
-                        pixels.push((
-                            b.min.x as i32 + gx as i32,
-                            b.min.y as i32 + gy as i32,
-                            coverage,
-                        ));
-                    }
-                });
-            }
-        }
+        });
         for (x, y, coverage) in pixels {
             let (x, y) = transform.transform(x + dx, y + dy);
             self.inner.draw_pixel(
@@ -182,99 +156,38 @@ impl<'a> DrawingBackend for Canvas<'a> {
     }
 }
 
-/// Marker shapes, cycled per series so that lines differ without colour too.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Shape {
-    Circle,
-    Square,
-    Triangle,
-    Diamond,
-}
-
-impl Shape {
-    /// Signed distance in pixels from `(x, y)` (relative to the centre, y down) to the edge of
-    /// this shape of radius `r`: negative inside. Sizes are chosen so that all shapes look
-    /// about as heavy as the circle.
-    fn distance(self, x: f64, y: f64, r: f64) -> f64 {
-        match self {
-            Shape::Circle => (x * x + y * y).sqrt() - r,
-            Shape::Square => x.abs().max(y.abs()) - 0.88 * r,
-            Shape::Diamond => (x.abs() + y.abs() - 1.3 * r) * std::f64::consts::FRAC_1_SQRT_2,
-            Shape::Triangle => {
-                // equilateral, pointing up, centred on its centroid
-                let t = 1.3 * r;
-                let (s, c) = (0.5f64, 3f64.sqrt() / 2.0);
-                let bottom = y - t * s;
-                let right = c * x - s * y - t * s;
-                let left = -c * x - s * y - t * s;
-                bottom.max(right).max(left)
-            }
+/// Lays `text` out in `font` at `scale` from `x` on `baseline` (pixels, y down): glyphs at
+/// their sub-pixel positions with kerning and side bearings; hands each covered pixel and its
+/// coverage to `pixel`. Returns the advance (width). `carom-render`'s legend text uses it too.
+pub fn lay_out(
+    font: &FontRef<'_>,
+    scale: PxScale,
+    x: f32,
+    baseline: f32,
+    text: &str,
+    mut pixel: impl FnMut(i32, i32, f32),
+) -> f32 {
+    let scaled = font.as_scaled(scale);
+    let mut caret = x;
+    let mut previous = None;
+    for c in text.chars() {
+        let id = scaled.glyph_id(c);
+        if let Some(p) = previous {
+            caret += scaled.kern(p, id);
+        }
+        previous = Some(id);
+        let glyph = id.with_scale_and_position(scale, point(caret, baseline));
+        caret += scaled.h_advance(id);
+        if let Some(outline) = font.outline_glyph(glyph) {
+            let b = outline.px_bounds();
+            outline.draw(|gx, gy, coverage| {
+                pixel(
+                    b.min.x as i32 + gx as i32,
+                    b.min.y as i32 + gy as i32,
+                    coverage,
+                )
+            });
         }
     }
-}
-
-/// A data marker: a filled, anti-aliased shape with a thin white halo, centred on `at`.
-pub(crate) struct Marker<C> {
-    pub(crate) at: C,
-    pub(crate) shape: Shape,
-    /// Radius in pixels.
-    pub(crate) radius: f64,
-    pub(crate) colour: plotters::style::RGBColor,
-}
-
-impl<'b, C> plotters::element::PointCollection<'b, C> for &'b Marker<C> {
-    type Point = &'b C;
-    type IntoIter = std::iter::Once<&'b C>;
-    fn point_iter(self) -> Self::IntoIter {
-        std::iter::once(&self.at)
-    }
-}
-
-impl<C, DB: DrawingBackend> plotters::element::Drawable<DB> for Marker<C> {
-    fn draw<I: Iterator<Item = BackendCoord>>(
-        &self,
-        mut points: I,
-        backend: &mut DB,
-        _: (u32, u32),
-    ) -> Result<(), DrawingErrorKind<DB::ErrorType>> {
-        let Some((cx, cy)) = points.next() else {
-            return Ok(());
-        };
-        const HALO: f64 = 1.3;
-        const SUB: usize = 4;
-        let reach = (self.radius * 1.4 + HALO + 1.0).ceil() as i32;
-        let (r, g, b) = (self.colour.0, self.colour.1, self.colour.2);
-        for py in -reach..=reach {
-            for px in -reach..=reach {
-                // coverage of the shape and of shape plus halo, by 4x4 supersampling
-                let (mut inner, mut outer) = (0usize, 0usize);
-                for sy in 0..SUB {
-                    for sx in 0..SUB {
-                        let x = px as f64 + (sx as f64 + 0.5) / SUB as f64 - 0.5;
-                        let y = py as f64 + (sy as f64 + 0.5) / SUB as f64 - 0.5;
-                        let d = self.shape.distance(x, y, self.radius);
-                        inner += usize::from(d <= 0.0);
-                        outer += usize::from(d <= HALO);
-                    }
-                }
-                let n = (SUB * SUB) as f64;
-                let at = (cx + px, cy + py);
-                if outer > inner {
-                    let white = BackendColor {
-                        alpha: outer as f64 / n,
-                        rgb: (255, 255, 255),
-                    };
-                    backend.draw_pixel(at, white)?;
-                }
-                if inner > 0 {
-                    let fill = BackendColor {
-                        alpha: inner as f64 / n,
-                        rgb: (r, g, b),
-                    };
-                    backend.draw_pixel(at, fill)?;
-                }
-            }
-        }
-        Ok(())
-    }
+    caret - x
 }

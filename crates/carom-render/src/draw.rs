@@ -1,14 +1,13 @@
 //! Drawing a frame: background, box, planes, particles, legend.
 
-use crate::colour::{colormap, colour_range, position};
+use crate::colour::{colormap, colour_range, position, BACKGROUND};
 use crate::frame::{Bounds, Frame, FramePlane};
 use crate::text;
-use crate::view::{corners, dot, normalise, sub, Projection, Rect};
+use crate::view::{corners, Projection, Rect};
 use crate::RenderOptions;
+use glam::{DVec2, DVec3, Vec3};
 use tiny_skia::{Color, Paint, PathBuilder, Pixmap, Stroke, Transform};
 
-/// Background colour.
-pub(crate) const BACKGROUND: [u8; 3] = [17, 19, 25];
 const BOX: [u8; 3] = [120, 126, 142];
 const PLANE: [u8; 3] = [236, 168, 72];
 const TEXT: [f32; 3] = [0.86, 0.87, 0.9];
@@ -61,15 +60,9 @@ fn disc(
     let y1 = ((cy + reach).ceil().max(0.0) as usize).min(h);
     let reach2 = reach * reach;
     let rim = r >= 2.0;
-    let light = {
-        let l = (LIGHT[0] * LIGHT[0] + LIGHT[1] * LIGHT[1] + LIGHT[2] * LIGHT[2]).sqrt();
-        LIGHT.map(|c| c / l)
-    };
-    let half = {
-        let v = [light[0], light[1], light[2] + 1.0];
-        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        v.map(|c| c / l)
-    };
+    let light = Vec3::from_array(LIGHT).normalize();
+    // Blinn-Phong's half vector, the viewer along +z
+    let half = (light + Vec3::Z).normalize();
     let inv_r = 1.0 / r;
     for y in y0..y1 {
         let dy = y as f32 + 0.5 - cy;
@@ -97,9 +90,9 @@ fn disc(
                 Shade::Sphere => {
                     let nx = (dx * inv_r).clamp(-1.0, 1.0);
                     let ny = (-dy * inv_r).clamp(-1.0, 1.0);
-                    let nz = (1.0 - nx * nx - ny * ny).max(0.0).sqrt();
-                    let lambert = (nx * light[0] + ny * light[1] + nz * light[2]).max(0.0);
-                    let s = (nx * half[0] + ny * half[1] + nz * half[2]).max(0.0);
+                    let normal = Vec3::new(nx, ny, (1.0 - nx * nx - ny * ny).max(0.0).sqrt());
+                    let lambert = normal.dot(light).max(0.0);
+                    let s = normal.dot(half).max(0.0);
                     let s2 = s * s;
                     let s8 = s2 * s2 * s2 * s2;
                     let specular = 0.35 * s8 * s8 * s8;
@@ -245,95 +238,17 @@ pub(crate) fn frame(pixmap: &mut Pixmap, frame: &Frame, options: &RenderOptions)
     let colour = |id: usize| colormap(position(options.colouring.value(frame, id), range));
 
     if dim == 2 {
-        let proj = Projection::flat(bounds, area);
-        let p2 = |x: [f64; 3]| proj.project(x).map(|(x, y, _)| (x, y));
-        if let Some(d) = &frame.domain {
-            if let (Some(a), Some(c)) = (p2(d.min), p2(d.max)) {
-                let pts = [a, (c.0, a.1), c, (a.0, c.1)];
-                polyline(pixmap, &pts, true, BOX, 255, line);
-            }
-        }
-        for plane in &frame.planes {
-            if is_domain_face(plane, frame.domain.as_ref(), 2) {
-                continue;
-            }
-            let Some(p) = p2(plane.point) else { continue };
-            // Along the plane: the normal turned a quarter; pixels have y down.
-            let t = normalise([-plane.normal[1], plane.normal[0], 0.0]);
-            let reach = (p.0 - w / 2.0).hypot(p.1 - h / 2.0) + w + h;
-            let a = (p.0 - t[0] * reach, p.1 + t[1] * reach);
-            let b = (p.0 + t[0] * reach, p.1 - t[1] * reach);
-            if let Some((a, b)) = clip(a, b, visible) {
-                polyline(pixmap, &[a, b], false, PLANE, 255, line * 1.3);
-            }
-        }
-        let (pw, ph) = (pixmap.width() as usize, pixmap.height() as usize);
-        let data = pixmap.data_mut();
-        for id in 0..frame.positions.len() {
-            if let Some((x, y, _)) = proj.project(frame.positions[id]) {
-                let r = proj.radius(frame.radii[id], 0.0);
-                disc(data, pw, ph, x, y, r, colour(id), Shade::Flat);
-            }
-        }
+        flat(
+            pixmap,
+            frame,
+            Projection::flat(bounds, area),
+            visible,
+            line,
+            &colour,
+        );
     } else {
         let proj = Projection::perspective(bounds, &options.camera, area);
-        let p2 = |x: [f64; 3]| proj.project(x).map(|(x, y, _)| (x, y));
-        // The box's edges: those on a face turned towards the camera are in front of every
-        // particle inside, so they are drawn after the particles, the others before.
-        let edges = |front: bool, pixmap: &mut Pixmap| {
-            let Some(d) = &frame.domain else { return };
-            let eye = proj.eye();
-            let c = corners(d);
-            let facing = |axis: usize, max: bool| {
-                if max {
-                    eye[axis] > d.max[axis]
-                } else {
-                    eye[axis] < d.min[axis]
-                }
-            };
-            for i in 0..8usize {
-                for a in 0..3 {
-                    let j = i | 1 << a;
-                    if j == i {
-                        continue;
-                    }
-                    let (b, e) = ((a + 1) % 3, (a + 2) % 3);
-                    let is_front = facing(b, i >> b & 1 == 1) || facing(e, i >> e & 1 == 1);
-                    if is_front == front {
-                        if let (Some(p), Some(q)) = (p2(c[i]), p2(c[j])) {
-                            polyline(pixmap, &[p, q], false, BOX, 255, line);
-                        }
-                    }
-                }
-            }
-        };
-        edges(false, pixmap);
-        for plane in &frame.planes {
-            if is_domain_face(plane, frame.domain.as_ref(), 3) {
-                continue;
-            }
-            let outline = plane_in_box(plane, &bounds);
-            let pts: Option<Vec<_>> = outline.iter().map(|&x| p2(x)).collect();
-            if let Some(pts) = pts.filter(|p| p.len() >= 3) {
-                polyline(pixmap, &pts, true, PLANE, 255, line * 1.3);
-            }
-        }
-        let mut order: Vec<(f64, f64, f64, u32)> = (0..frame.positions.len())
-            .filter_map(|id| {
-                proj.project(frame.positions[id])
-                    .map(|(x, y, z)| (z, x, y, id as u32))
-            })
-            .collect();
-        // Far first; the sort is stable, so equal depths keep id order.
-        order.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let (pw, ph) = (pixmap.width() as usize, pixmap.height() as usize);
-        let data = pixmap.data_mut();
-        for (z, x, y, id) in order {
-            let id = id as usize;
-            let r = proj.radius(frame.radii[id], z);
-            disc(data, pw, ph, x, y, r, colour(id), Shade::Sphere);
-        }
-        edges(true, pixmap);
+        perspective(pixmap, frame, proj, &bounds, line, &colour);
     }
 
     if options.legend {
@@ -341,12 +256,125 @@ pub(crate) fn frame(pixmap: &mut Pixmap, frame: &Frame, options: &RenderOptions)
     }
 }
 
+/// The 2D picture: the domain's outline, planes as lines across the view, flat discs.
+fn flat(
+    pixmap: &mut Pixmap,
+    frame: &Frame,
+    proj: Projection,
+    visible: Rect,
+    line: f64,
+    colour: &dyn Fn(usize) -> [f32; 3],
+) {
+    let (w, h) = (pixmap.width() as f64, pixmap.height() as f64);
+    let p2 = |x: [f64; 3]| proj.project(DVec3::from_array(x)).map(|(x, y, _)| (x, y));
+    if let Some(d) = &frame.domain {
+        if let (Some(a), Some(c)) = (p2(d.min), p2(d.max)) {
+            let pts = [a, (c.0, a.1), c, (a.0, c.1)];
+            polyline(pixmap, &pts, true, BOX, 255, line);
+        }
+    }
+    for plane in &frame.planes {
+        if is_domain_face(plane, frame.domain.as_ref(), 2) {
+            continue;
+        }
+        let Some(p) = p2(plane.point) else { continue };
+        // Along the plane: the normal turned a quarter; pixels have y down.
+        let t = DVec2::new(plane.normal[0], plane.normal[1])
+            .perp()
+            .normalize_or_zero();
+        let reach = (p.0 - w / 2.0).hypot(p.1 - h / 2.0) + w + h;
+        let a = (p.0 - t.x * reach, p.1 + t.y * reach);
+        let b = (p.0 + t.x * reach, p.1 - t.y * reach);
+        if let Some((a, b)) = clip(a, b, visible) {
+            polyline(pixmap, &[a, b], false, PLANE, 255, line * 1.3);
+        }
+    }
+    let (pw, ph) = (pixmap.width() as usize, pixmap.height() as usize);
+    let data = pixmap.data_mut();
+    for id in 0..frame.positions.len() {
+        if let Some((x, y, _)) = proj.project(DVec3::from_array(frame.positions[id])) {
+            let r = proj.radius(frame.radii[id], 0.0);
+            disc(data, pw, ph, x, y, r, colour(id), Shade::Flat);
+        }
+    }
+}
+
+/// The 3D picture: the box's back edges, planes' outlines in the box, spheres far to near,
+/// the box's front edges.
+fn perspective(
+    pixmap: &mut Pixmap,
+    frame: &Frame,
+    proj: Projection,
+    bounds: &Bounds,
+    line: f64,
+    colour: &dyn Fn(usize) -> [f32; 3],
+) {
+    let p2 = |x: DVec3| proj.project(x).map(|(x, y, _)| (x, y));
+    // The box's edges: those on a face turned towards the camera are in front of every
+    // particle inside, so they are drawn after the particles, the others before.
+    let edges = |front: bool, pixmap: &mut Pixmap| {
+        let Some(d) = &frame.domain else { return };
+        let eye = proj.eye();
+        let c = corners(d);
+        let facing = |axis: usize, max: bool| {
+            if max {
+                eye[axis] > d.max[axis]
+            } else {
+                eye[axis] < d.min[axis]
+            }
+        };
+        for i in 0..8usize {
+            for a in 0..3 {
+                let j = i | 1 << a;
+                if j == i {
+                    continue;
+                }
+                let (b, e) = ((a + 1) % 3, (a + 2) % 3);
+                let is_front = facing(b, i >> b & 1 == 1) || facing(e, i >> e & 1 == 1);
+                if is_front == front {
+                    if let (Some(p), Some(q)) = (p2(c[i]), p2(c[j])) {
+                        polyline(pixmap, &[p, q], false, BOX, 255, line);
+                    }
+                }
+            }
+        }
+    };
+    edges(false, pixmap);
+    for plane in &frame.planes {
+        if is_domain_face(plane, frame.domain.as_ref(), 3) {
+            continue;
+        }
+        let outline = plane_in_box(plane, bounds);
+        let pts: Option<Vec<_>> = outline.iter().map(|&x| p2(x)).collect();
+        if let Some(pts) = pts.filter(|p| p.len() >= 3) {
+            polyline(pixmap, &pts, true, PLANE, 255, line * 1.3);
+        }
+    }
+    let mut order: Vec<(f64, f64, f64, u32)> = (0..frame.positions.len())
+        .filter_map(|id| {
+            proj.project(DVec3::from_array(frame.positions[id]))
+                .map(|(x, y, z)| (z, x, y, id as u32))
+        })
+        .collect();
+    // Far first; the sort is stable, so equal depths keep id order.
+    order.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let (pw, ph) = (pixmap.width() as usize, pixmap.height() as usize);
+    let data = pixmap.data_mut();
+    for (z, x, y, id) in order {
+        let id = id as usize;
+        let r = proj.radius(frame.radii[id], z);
+        disc(data, pw, ph, x, y, r, colour(id), Shade::Sphere);
+    }
+    edges(true, pixmap);
+}
+
 /// The polygon where `plane` cuts the box `b` (empty when it misses), in order around it.
-fn plane_in_box(plane: &FramePlane, b: &Bounds) -> Vec<[f64; 3]> {
+fn plane_in_box(plane: &FramePlane, b: &Bounds) -> Vec<DVec3> {
     let c = corners(b);
-    let n = normalise(plane.normal);
-    let side = |x: [f64; 3]| dot(sub(x, plane.point), n);
-    let mut points: Vec<[f64; 3]> = Vec::new();
+    let n = DVec3::from_array(plane.normal).normalize_or_zero();
+    let on = DVec3::from_array(plane.point);
+    let side = |x: DVec3| (x - on).dot(n);
+    let mut points: Vec<DVec3> = Vec::new();
     for i in 0..8usize {
         for a in 0..3 {
             let j = i | 1 << a;
@@ -356,32 +384,20 @@ fn plane_in_box(plane: &FramePlane, b: &Bounds) -> Vec<[f64; 3]> {
             let (da, db) = (side(c[i]), side(c[j]));
             if (da <= 0.0) != (db <= 0.0) {
                 let t = da / (da - db);
-                points.push([0, 1, 2].map(|k| c[i][k] + t * (c[j][k] - c[i][k])));
+                points.push(c[i] + t * (c[j] - c[i]));
             }
         }
     }
     if points.len() < 3 {
         return Vec::new();
     }
-    let centre = [0, 1, 2].map(|k| points.iter().map(|p| p[k]).sum::<f64>() / points.len() as f64);
-    let helper = if n[0].abs() < 0.9 {
-        [1.0, 0.0, 0.0]
-    } else {
-        [0.0, 1.0, 0.0]
-    };
-    let u = normalise([
-        n[1] * helper[2] - n[2] * helper[1],
-        n[2] * helper[0] - n[0] * helper[2],
-        n[0] * helper[1] - n[1] * helper[0],
-    ]);
-    let v = [
-        n[1] * u[2] - n[2] * u[1],
-        n[2] * u[0] - n[0] * u[2],
-        n[0] * u[1] - n[1] * u[0],
-    ];
-    let angle = |p: &[f64; 3]| {
-        let d = sub(*p, centre);
-        dot(d, v).atan2(dot(d, u))
+    let centre = points.iter().sum::<DVec3>() / points.len() as f64;
+    let helper = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+    let u = n.cross(helper).normalize_or_zero();
+    let v = n.cross(u);
+    let angle = |p: &DVec3| {
+        let d = *p - centre;
+        d.dot(v).atan2(d.dot(u))
     };
     points.sort_by(|p, q| angle(p).total_cmp(&angle(q)));
     points

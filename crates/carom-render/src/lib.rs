@@ -12,9 +12,10 @@
 //!   front (depth sorted), shaded with a Lambert term and a small highlight; the box is a
 //!   wireframe; planes are their outline inside the box.
 //!
-//! Particles are coloured by speed, radius or id ([`Colouring`]) through the turbo colormap
-//! ([`colormap`]), with a legend bar labelled with the scale's ends and the frame's time and
-//! step. Text uses the DejaVu Sans font bundled with `carom-plot`.
+//! Particles are coloured by speed, radius or id ([`Colouring`]) through a slice of the turbo
+//! colormap ([`colormap`]) on a near-black [`BACKGROUND`], the same map and background the
+//! viewer uses, with a legend bar labelled with the scale's ends and the frame's time and
+//! step. Text uses the DejaVu Sans font that `carom-plot` owns ([`carom_plot::FONT`]).
 //!
 //! Discs are rasterised directly (coverage from the distance to the centre), not as one
 //! vector path per particle: 5000 particles at 1024x1024 take a few milliseconds. Lines and
@@ -38,7 +39,7 @@ mod frame;
 mod text;
 mod view;
 
-pub use colour::{colormap, colour_range, Colouring};
+pub use colour::{colormap, colormap_rgb8, colour_range, Colouring, BACKGROUND};
 pub use encode::{write_png, GifFrame, GifWriter};
 pub use frame::{Bounds, Frame, FramePlane};
 pub use tiny_skia::Pixmap;

@@ -48,10 +48,10 @@ fn one_particle_at_the_centre() {
         );
     }
     for (x, y) in [(0, 0), (199, 0), (0, 199), (199, 199), (100, 2)] {
-        assert_eq!(pixel(&p, x, y), draw::BACKGROUND, "({x},{y})");
+        assert_eq!(pixel(&p, x, y), BACKGROUND, "({x},{y})");
     }
     // Far from the particle but inside the box: background.
-    assert_eq!(pixel(&p, 150, 150), draw::BACKGROUND);
+    assert_eq!(pixel(&p, 150, 150), BACKGROUND);
 }
 
 #[test]
@@ -63,7 +63,7 @@ fn y_points_up_and_x_right() {
     let s = 188.0 / 20.0;
     let (x, y) = ((100.0 + 5.0 * s) as u32, (100.0 - 5.0 * s) as u32);
     assert!(close(pixel(&p, x, y), to_u8(colormap(1.0))));
-    assert_eq!(pixel(&p, 200 - x, 200 - y), draw::BACKGROUND);
+    assert_eq!(pixel(&p, 200 - x, 200 - y), BACKGROUND);
 }
 
 #[test]
@@ -136,7 +136,7 @@ fn depth_order_near_sphere_covers_far_one() {
         } else {
             assert!(c[0] > c[2], "near sphere is id 1 (red): {c:?}");
         }
-        assert_eq!(pixel(&p, 100, 2), draw::BACKGROUND);
+        assert_eq!(pixel(&p, 100, 2), BACKGROUND);
     }
 }
 
@@ -177,7 +177,7 @@ fn legend_has_text_and_bar() {
     let band = |p: &Pixmap| {
         (370..400)
             .flat_map(|y| (0..400).map(move |x| (x, y)))
-            .filter(|&(x, y)| pixel(p, x, y) != draw::BACKGROUND)
+            .filter(|&(x, y)| pixel(p, x, y) != BACKGROUND)
             .count()
     };
     // Without the legend only the box's bottom edge is there.

@@ -1,17 +1,10 @@
-//! Text with `ab_glyph` and the DejaVu Sans font bundled with `carom-plot`.
+//! Text with `ab_glyph` and the DejaVu Sans font that `carom-plot` owns ([`carom_plot::FONT`]).
 
-use ab_glyph::{point, Font, FontRef, PxScale, ScaleFont};
-use std::sync::OnceLock;
-
-/// DejaVu Sans (see `crates/carom-plot/fonts/`).
-const FONT: &[u8] = include_bytes!("../../carom-plot/fonts/DejaVuSans.ttf");
+use ab_glyph::{FontRef, PxScale};
 
 /// The parsed font, or `None` if it does not parse (then no text is drawn).
 pub(crate) fn font() -> Option<&'static FontRef<'static>> {
-    static PARSED: OnceLock<Option<FontRef<'static>>> = OnceLock::new();
-    PARSED
-        .get_or_init(|| FontRef::try_from_slice(FONT).ok())
-        .as_ref()
+    carom_plot::font()
 }
 
 /// Height of a capital letter at font size `size`, pixels.
@@ -21,38 +14,9 @@ pub(crate) fn cap_height(size: f32) -> f32 {
 
 /// Lays `text` out from `x` on `baseline` and hands each covered pixel to `pixel`; returns
 /// the advance (width) in pixels.
-fn layout(
-    size: f32,
-    x: f32,
-    baseline: f32,
-    text: &str,
-    mut pixel: impl FnMut(i32, i32, f32),
-) -> f32 {
+fn layout(size: f32, x: f32, baseline: f32, text: &str, pixel: impl FnMut(i32, i32, f32)) -> f32 {
     let Some(font) = font() else { return 0.0 };
-    let scale = PxScale::from(size);
-    let scaled = font.as_scaled(scale);
-    let mut caret = x;
-    let mut previous = None;
-    for c in text.chars() {
-        let id = scaled.glyph_id(c);
-        if let Some(p) = previous {
-            caret += scaled.kern(p, id);
-        }
-        previous = Some(id);
-        let glyph = id.with_scale_and_position(scale, point(caret, baseline));
-        caret += scaled.h_advance(id);
-        if let Some(outline) = font.outline_glyph(glyph) {
-            let b = outline.px_bounds();
-            outline.draw(|gx, gy, coverage| {
-                pixel(
-                    b.min.x as i32 + gx as i32,
-                    b.min.y as i32 + gy as i32,
-                    coverage,
-                )
-            });
-        }
-    }
-    caret - x
+    carom_plot::lay_out(font, PxScale::from(size), x, baseline, text, pixel)
 }
 
 /// The width of `text` at font size `size`, pixels.

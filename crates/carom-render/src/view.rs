@@ -2,6 +2,7 @@
 //! camera in 3D.
 
 use crate::frame::Bounds;
+use glam::{BVec3, DVec3};
 
 /// The 3D orbit camera. It looks at the centre of the view box from outside, y up, and is
 /// fitted so that the whole box fills the image.
@@ -41,10 +42,10 @@ pub(crate) enum Projection {
     Flat { scale: f64, ox: f64, oy: f64 },
     /// Camera frame (eye, right, up, forward) and the focal length and centre in pixels.
     Perspective {
-        eye: [f64; 3],
-        right: [f64; 3],
-        up: [f64; 3],
-        forward: [f64; 3],
+        eye: DVec3,
+        right: DVec3,
+        up: DVec3,
+        forward: DVec3,
         focal: f64,
         cx: f64,
         cy: f64,
@@ -54,34 +55,10 @@ pub(crate) enum Projection {
 /// Closer than this (in units of the view box's size) to the eye's plane is not drawn.
 const NEAR: f64 = 1e-3;
 
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-pub(crate) fn normalise(a: [f64; 3]) -> [f64; 3] {
-    let l = dot(a, a).sqrt();
-    if l > 0.0 {
-        a.map(|c| c / l)
-    } else {
-        a
-    }
-}
-
 /// The box's 8 corners, bit `a` of the index choosing max on axis `a`.
-pub(crate) fn corners(b: &Bounds) -> [[f64; 3]; 8] {
-    std::array::from_fn(|i| [0, 1, 2].map(|a| if i >> a & 1 == 1 { b.max[a] } else { b.min[a] }))
+pub(crate) fn corners(b: &Bounds) -> [DVec3; 8] {
+    let (lo, hi) = (DVec3::from_array(b.min), DVec3::from_array(b.max));
+    std::array::from_fn(|i| DVec3::select(BVec3::new(i & 1 == 1, i & 2 == 2, i & 4 == 4), hi, lo))
 }
 
 /// A box no thinner than `min_extent` on any of the first `dim` axes.
@@ -115,23 +92,23 @@ impl Projection {
     /// `area`, centred.
     pub(crate) fn perspective(bounds: Bounds, camera: &Camera, area: Rect) -> Self {
         let b = widened(bounds, 3);
-        let centre = b.centre();
-        let radius = 0.5 * dot(sub(b.max, b.min), sub(b.max, b.min)).sqrt();
+        let centre = DVec3::from_array(b.centre());
+        let radius = 0.5 * DVec3::from_array(b.max).distance(DVec3::from_array(b.min));
         let fov = camera.fov_degrees.clamp(1.0, 170.0).to_radians();
         let (yaw, pitch) = (
             camera.yaw_degrees.to_radians(),
             camera.pitch_degrees.clamp(-89.0, 89.0).to_radians(),
         );
         let distance = radius / (fov / 2.0).sin();
-        let dir = [
+        let dir = DVec3::new(
             pitch.cos() * yaw.sin(),
             pitch.sin(),
             pitch.cos() * yaw.cos(),
-        ];
-        let eye = [0, 1, 2].map(|a| centre[a] + distance * dir[a]);
-        let forward = dir.map(|c| -c);
-        let right = normalise(cross(forward, [0.0, 1.0, 0.0]));
-        let up = cross(right, forward);
+        );
+        let eye = centre + distance * dir;
+        let forward = -dir;
+        let right = forward.cross(DVec3::Y).normalize_or_zero();
+        let up = right.cross(forward);
         let mut p = Projection::Perspective {
             eye,
             right,
@@ -161,18 +138,18 @@ impl Projection {
     }
 
     /// The camera's position (the origin in 2D).
-    pub(crate) fn eye(&self) -> [f64; 3] {
+    pub(crate) fn eye(&self) -> DVec3 {
         match *self {
-            Projection::Flat { .. } => [0.0; 3],
+            Projection::Flat { .. } => DVec3::ZERO,
             Projection::Perspective { eye, .. } => eye,
         }
     }
 
     /// Pixel coordinates and depth (distance along the view direction; 0 in 2D), or `None`
     /// when behind the camera.
-    pub(crate) fn project(&self, x: [f64; 3]) -> Option<(f64, f64, f64)> {
+    pub(crate) fn project(&self, x: DVec3) -> Option<(f64, f64, f64)> {
         match *self {
-            Projection::Flat { scale, ox, oy } => Some((ox + x[0] * scale, oy - x[1] * scale, 0.0)),
+            Projection::Flat { scale, ox, oy } => Some((ox + x.x * scale, oy - x.y * scale, 0.0)),
             Projection::Perspective {
                 eye,
                 right,
@@ -182,16 +159,12 @@ impl Projection {
                 cx,
                 cy,
             } => {
-                let d = sub(x, eye);
-                let z = dot(d, forward);
+                let d = x - eye;
+                let z = d.dot(forward);
                 if z <= NEAR {
                     return None;
                 }
-                Some((
-                    cx + focal * dot(d, right) / z,
-                    cy - focal * dot(d, up) / z,
-                    z,
-                ))
+                Some((cx + focal * d.dot(right) / z, cy - focal * d.dot(up) / z, z))
             }
         }
     }

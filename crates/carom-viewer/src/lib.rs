@@ -6,8 +6,10 @@
 //!
 //! The logic is in plain modules that are tested without a window: [`control`] (panel ->
 //! engine parameters and scene rebuilds), [`view`] (2D view, 3D orbit camera, picking),
-//! [`teach`] (grid, neighbour cells, candidates, contact split), [`colour`] and [`render`]
-//! (sprites). [`sim`] steps the world in a background thread; `app` is the egui window.
+//! [`teach`] (grid, neighbour cells, candidates, contact split), [`colour`] (the live colour
+//! range; the map and background are `carom-render`'s, shared with `carom render`) and
+//! [`render`] (sprites). [`sim`] steps the world in a background thread; `app` is the egui
+//! window, one module per part: side panel, 2D canvas, 3D canvas, plots (egui_plot).
 #![warn(missing_docs)]
 
 mod app;

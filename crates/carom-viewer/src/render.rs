@@ -1,6 +1,7 @@
 //! Particle sprites: every particle is one textured quad of a single mesh, so the GPU gets a
 //! few draw calls however many particles there are.
 
+use carom_engine::glam::Vec3;
 use eframe::egui::{Color32, ColorImage, Mesh, Pos2, Rect, TextureId};
 use eframe::epaint::Vertex;
 
@@ -15,22 +16,15 @@ pub fn disc_image() -> ColorImage {
 /// A white sphere lit from the upper left, front (shade in the colour, alpha at the edge), for
 /// 3D particles. The light is fixed relative to the camera, so a sprite is exact for a sphere.
 pub fn sphere_image() -> ColorImage {
-    let light = normalise([-0.45, 0.55, 0.70]);
+    let light = Vec3::new(-0.45, 0.55, 0.70).normalize();
+    // Blinn-Phong with the viewer along +z
+    let half = (light + Vec3::Z).normalize();
     sprite(|x, y, z| {
-        let n = [x, y, z];
-        let diffuse = (n[0] * light[0] + n[1] * light[1] + n[2] * light[2]).max(0.0);
-        // Blinn-Phong with the viewer along +z
-        let h = normalise([light[0], light[1], light[2] + 1.0]);
-        let spec = (n[0] * h[0] + n[1] * h[1] + n[2] * h[2])
-            .max(0.0)
-            .powf(40.0);
+        let n = Vec3::new(x, y, z);
+        let diffuse = n.dot(light).max(0.0);
+        let spec = n.dot(half).max(0.0).powf(40.0);
         (0.25 + 0.75 * diffuse + 0.5 * spec).min(1.4)
     })
-}
-
-fn normalise(v: [f32; 3]) -> [f32; 3] {
-    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [v[0] / l, v[1] / l, v[2] / l]
 }
 
 /// Renders a sprite: `shade(x, y, z)` on the unit sphere's front half (y up) gives brightness.
