@@ -1,0 +1,45 @@
+//! Resolving many simultaneous contacts: velocities first, then (after the particles move)
+//! positions.
+//!
+//! **Velocity phase.** Every contact whose particles overlap (the lecture's detection,
+//! `distance < r1 + r2`) is one of two kinds, decided each time a sweep visits it:
+//!
+//! - an *impact*: approaching (the lecture's trap rule, `p_rel . v_rel < 0`) at or above the
+//!   resting speed, or any approach when `k = 1`. It takes the lecture's response
+//!   ([`crate::response::collide`]), restitution and all, so an isolated collision is exactly
+//!   the lecture's and Newton's cradle passes its velocity along ball by ball.
+//! - a *resting* contact (slower than the resting speed, `k < 1`): a sequential impulse as in
+//!   Box2D. Its impulse accumulates over the sweeps, never below zero (a contact pushes, it
+//!   never pulls), aiming at zero relative normal speed. For a single new contact that is the
+//!   lecture's formula with `k = 0`; in a pile, the accumulated impulse is remembered into the
+//!   next step ([`crate::memory`]) and applied before the first sweep ("warm starting"), so the
+//!   weight of fifty rows does not have to climb up from the floor again every step.
+//!
+//! Sweeps repeat until one changes nothing (no impact, no resting impulse moving the relative
+//! speed by more than [`RESIDUAL_FRACTION`] of the resting speed) or the cap is hit. Every
+//! impulse is equal and opposite, so momentum is conserved whatever the cap; with `k = 1`
+//! every contact is an impact, so kinetic energy is too.
+//!
+//! **Position phase** (the lecture's "solution 1", which it calls hard with many contacts):
+//! after the particles move, overlapping particles are moved apart along their normal, each by
+//! its share of inverse mass, down to a small slop, and pushed out of planes.
+//! Positions only: velocities are never touched, so this can never add kinetic energy. Planes
+//! go last so a walled box holds its particles. (One exception, the lecture's step under
+//! gravity with every plane elastic: a lift out of a plane is paid for from the particle's
+//! speed, so that kinetic + potential energy is kept; see `keep_energy`.)
+//!
+//! The order of every rule application is fixed by [`crate::schedule`].
+
+mod bounces;
+mod position;
+mod rows;
+mod rules;
+mod settings;
+mod velocity;
+
+pub use settings::{SolverSettings, VelocitySolve, RESIDUAL_FRACTION, SLOP_FRACTION};
+
+pub(crate) use position::separate;
+pub(crate) use rows::{prepare_rows, tally, Contacts, Moving, PlaneRow, Row, WorkList};
+pub(crate) use settings::{plane_reach, reach};
+pub(crate) use velocity::integrate;

@@ -1,0 +1,304 @@
+//! One row of solver data per contact candidate (pairs and plane contacts), and the views of a
+//! step's contacts and moving particles that the phases work on.
+
+use super::settings::*;
+use crate::broadphase::Pair;
+use crate::periodic::apply_shift;
+use crate::plane::Plane;
+use crate::response::{contact_normal, is_overlapping};
+use crate::schedule::{Blocks, PlaneContact, Visit};
+use crate::vector::Vector;
+use rayon::prelude::*;
+
+/// One contact candidate's solver data, at the same index as its pair.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct Row<V> {
+    /// Unit normal from `j` to `i` at the start of the velocity phase.
+    pub normal: V,
+    /// `(m_i, m_j)`, > 0.
+    pub mass: [f64; 2],
+    /// `(1 / m_i, 1 / m_j)`.
+    pub inverse_mass: [f64; 2],
+    /// `1 / (1 / m_i + 1 / m_j)`: the impulse that changes the relative normal speed by one.
+    pub effective_mass: f64,
+    /// `(r_i, r_j)`, > 0.
+    pub radius: [f64; 2],
+    /// Accumulated impulse this step, >= 0 (mass x length / time).
+    pub impulse: f64,
+    /// The impulse after the relax pass: what the next step starts from.
+    pub kept: f64,
+    /// For an impact, the speed its restitution pass aims to separate at (`k` times its
+    /// approach speed); 0 for a resting contact.
+    pub bounce: f64,
+    /// True once the contact took an impulse this step.
+    pub met: bool,
+    /// Overlap at the end of the step as a fraction of `min_radius` (0 when apart).
+    pub overlap: f64,
+    /// `|x_i - x_j|` where the contact was last placed (length).
+    pub distance: f64,
+    /// The normal impulse `j` gave `i` this step, summed over every application (mass x
+    /// length / time; positive pushes apart): the collisional virial's `J_ij` (see
+    /// [`crate::observe`]).
+    pub delivered: f64,
+    /// True once the lecture's response answered an approach of this pair this step.
+    pub impact: bool,
+    /// The lecture's detection at the start of the velocity phase, with distinct centres (a
+    /// pair with coincident centres has no direction to respond along).
+    pub touching: bool,
+    /// How fast a resting contact may still approach this step: the gap between the surfaces
+    /// over `dt` (0 when they overlap, infinite for coincident centres). A pair a hair apart
+    /// stays in the solver as a *speculative* contact (as in Box2D), so the position phase
+    /// opening a contact by a rounding error does not drop a pile's support for a step.
+    pub allowance: f64,
+    /// What `j` is seen through across periodic seams: every rule that reads positions uses
+    /// `x_j + shift` (see [`crate::periodic`]). Whole periods per axis, fixed when the pair is
+    /// found; zero without periodic axes (and then `x_j` is used as it is, bit for bit).
+    pub shift: V,
+}
+
+impl<V: Vector> Row<V> {
+    /// The row of particles at `x`, radius `r` and mass `m`, for a step of `dt`.
+    #[inline]
+    pub fn new(xi: V, xj: V, ri: f64, rj: f64, mi: f64, mj: f64, dt: f64) -> Self {
+        Self::across(xi, xj, V::ZERO, ri, rj, mi, mj, dt)
+    }
+
+    /// [`Row::new`] for a pair seen through `x_j + shift` (see [`Row::shift`]).
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub fn across(xi: V, xj: V, shift: V, ri: f64, rj: f64, mi: f64, mj: f64, dt: f64) -> Self {
+        let mut row = Self {
+            normal: V::ZERO,
+            mass: [mi, mj],
+            inverse_mass: [1.0 / mi, 1.0 / mj],
+            effective_mass: 1.0 / (1.0 / mi + 1.0 / mj),
+            radius: [ri, rj],
+            impulse: 0.0,
+            kept: 0.0,
+            bounce: 0.0,
+            met: false,
+            overlap: 0.0,
+            distance: 0.0,
+            delivered: 0.0,
+            impact: false,
+            touching: false,
+            allowance: 0.0,
+            shift,
+        };
+        row.place(xi, xj, dt);
+        row
+    }
+
+    /// Where this row sees `j` from `i`: `x_j + shift`, or `x_j` itself when there is no shift.
+    #[inline]
+    pub fn image(&self, xj: V) -> V {
+        apply_shift(xj, self.shift)
+    }
+
+    /// Normal, detection and allowance for particles at `xi`, `xj` over a (sub)step `dt`. A
+    /// row left out for the step (infinite allowance) stays out.
+    #[inline]
+    pub fn place(&mut self, xi: V, xj: V, dt: f64) {
+        if self.allowance == f64::INFINITY {
+            return;
+        }
+        let xj = self.image(xj);
+        let (normal, distance) = contact_normal(xi, xj);
+        let [ri, rj] = self.radius;
+        self.normal = normal;
+        self.distance = distance;
+        self.touching = distance > 0.0 && is_overlapping(xi, xj, ri, rj);
+        // Within the slop of touching, a contact may not close in: the position phase opens
+        // and closes such hairline gaps every step, and letting them turn into approach speeds
+        // would keep a pile stirring.
+        self.allowance = if distance > 0.0 {
+            (distance - (ri + rj) - SLOP_FRACTION * ri.min(rj)).max(0.0) / dt
+        } else {
+            f64::INFINITY
+        };
+    }
+
+    /// `r_i + r_j`.
+    #[inline]
+    pub fn reach(&self) -> f64 {
+        self.radius[0] + self.radius[1]
+    }
+
+    /// `min(r_i, r_j)`.
+    #[inline]
+    pub fn min_radius(&self) -> f64 {
+        self.radius[0].min(self.radius[1])
+    }
+
+    /// True when this pair counts as a collision this step: it answered an approach with the
+    /// lecture's response, or it was an impact (see [`integrate`](super::velocity::integrate)) that met.
+    #[inline]
+    pub fn collided(&self) -> bool {
+        self.impact || (self.bounce > 0.0 && self.met)
+    }
+}
+
+/// What a step's rows add up to, in one pass (row order, so the same rows give the same
+/// bits).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct RowTally {
+    /// Rows whose pair overlapped at the start of the velocity phase.
+    pub touching: u64,
+    /// Particle-particle collisions (see [`Row::collided`]).
+    pub collisions: u64,
+    /// The collisional virial `sum J_ij . r_ij`.
+    pub virial: f64,
+}
+
+/// Adds up `rows` (see [`RowTally`]).
+pub(crate) fn tally<V: Vector>(rows: &[Row<V>]) -> RowTally {
+    rows.iter().fold(RowTally::default(), |t, row| RowTally {
+        touching: t.touching + row.touching as u64,
+        collisions: t.collisions + row.collided() as u64,
+        virial: t.virial + row.delivered * row.distance,
+    })
+}
+
+/// One particle-plane candidate's solver data.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct PlaneRow<V> {
+    /// The plane's unit normal.
+    pub normal: V,
+    /// The plane's restitution.
+    pub restitution: f64,
+    /// The particle's radius.
+    pub radius: f64,
+    /// Accumulated impulse per unit mass this step, >= 0 (length / time).
+    pub impulse: f64,
+    /// The impulse after the relax pass (see [`Row::kept`]).
+    pub kept: f64,
+    /// See [`Row::bounce`].
+    pub bounce: f64,
+    /// See [`Row::met`].
+    pub met: bool,
+    /// Index of the plane.
+    pub plane: u32,
+    /// The lecture's plane detection at the start of the velocity phase, with its threshold
+    /// ("in practice we take a threshold distance"): `(x - p) . n < r + SLOP_FRACTION r`, since
+    /// the position phase leaves a particle exactly touching its plane.
+    pub touching: bool,
+    /// How fast a resting contact may still approach the plane this step (see
+    /// [`Row::allowance`]).
+    pub allowance: f64,
+    /// Where the particle's centre was when the row was made (the start of the step): when
+    /// planes bounce in the move (see [`bounce_in_move`](super::bounces::bounce_in_move)), its path this step starts here.
+    pub start: V,
+    /// How far the position phase pushed the particle out of the plane this step (see
+    /// [`keep_energy`](super::bounces::keep_energy)).
+    pub lift: f64,
+}
+
+impl<V: Vector> PlaneRow<V> {
+    /// The row of a particle at `x` with radius `r` against `plane` (index `index`), for a
+    /// step of `dt`.
+    #[inline]
+    pub fn new(plane: &Plane<V>, index: u32, x: V, radius: f64, dt: f64) -> Self {
+        let mut row = Self {
+            normal: plane.normal(),
+            restitution: plane.restitution(),
+            radius,
+            impulse: 0.0,
+            kept: 0.0,
+            bounce: 0.0,
+            met: false,
+            plane: index,
+            touching: false,
+            allowance: 0.0,
+            start: x,
+            lift: 0.0,
+        };
+        row.place(plane, x, dt);
+        row
+    }
+
+    /// Detection and allowance for the particle at `x` over a (sub)step `dt` (see
+    /// [`Row::place`]).
+    #[inline]
+    pub fn place(&mut self, plane: &Plane<V>, x: V, dt: f64) {
+        if self.allowance == f64::INFINITY {
+            return;
+        }
+        let (distance, r) = (plane.signed_distance(x), self.radius);
+        self.touching = distance < r + SLOP_FRACTION * r;
+        self.allowance = (distance - r - SLOP_FRACTION * r).max(0.0) / dt;
+    }
+}
+
+/// Fills `rows` (one per pair) from `row(pair)`, in parallel when asked.
+pub(crate) fn prepare_rows<V: Vector>(
+    rows: &mut Vec<Row<V>>,
+    pairs: &[Pair],
+    parallel: bool,
+    row: impl Fn(Pair) -> Row<V> + Sync,
+) {
+    rows.resize(pairs.len(), Row::default());
+    crate::broadphase::keep_headroom(rows);
+    let fill = |(out, keys): (&mut [Row<V>], &[Pair])| {
+        for (r, &p) in out.iter_mut().zip(keys) {
+            *r = row(p);
+        }
+    };
+    if parallel {
+        rows.par_chunks_mut(ROW_CHUNK)
+            .zip(pairs.par_chunks(ROW_CHUNK))
+            .for_each(fill);
+    } else {
+        fill((rows, pairs));
+    }
+}
+
+/// This step's contacts, planned into blocks, with their rows.
+pub(crate) struct Contacts<'a, V> {
+    pub pairs: &'a [Pair],
+    pub rows: &'a mut [Row<V>],
+    pub plane_contacts: &'a [PlaneContact],
+    pub plane_rows: &'a mut [PlaneRow<V>],
+    pub planes: &'a [Plane<V>],
+    pub blocks: &'a Blocks,
+    pub work: WorkList<'a>,
+}
+
+/// The per-particle stamps of the work lists (see [`crate::schedule`]) and the sweep clock
+/// that numbers them. Without stamps (an empty slice) every sweep visits every contact, with
+/// the same result.
+pub(crate) struct WorkList<'a> {
+    /// One per slot of the data the sweeps run on, or none.
+    pub stamps: &'a mut [u32],
+    /// The number of the last sweep (kept between steps; stamps below the current pass's
+    /// first sweep mean nothing).
+    pub clock: &'a mut u32,
+}
+
+impl WorkList<'_> {
+    /// The visit of a new sweep: every contact on a pass's first sweep (`previous` = None),
+    /// afterwards the contacts with a particle changed since `previous` began.
+    pub(super) fn next(&mut self, previous: Option<Visit>) -> Visit {
+        if self.stamps.is_empty() {
+            return Visit::ALL;
+        }
+        if previous.is_none() && *self.clock > u32::MAX / 2 {
+            self.stamps.fill(0);
+            *self.clock = 0;
+        }
+        *self.clock += 1;
+        Visit {
+            since: previous.map_or(0, |p| p.now),
+            now: *self.clock,
+        }
+    }
+}
+
+/// The particles a step moves: `position` and `velocity` cover the slots the blocks cover, of
+/// which the first `own` belong to this process (the rest are borrowed).
+pub(crate) struct Moving<'a, V> {
+    pub position: &'a mut [V],
+    pub velocity: &'a mut [V],
+    pub own: usize,
+    /// Per own slot, whether it sleeps this step (see [`crate::sleep`]); empty when none does.
+    pub asleep: &'a [bool],
+}

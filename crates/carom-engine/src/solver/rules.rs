@@ -1,0 +1,131 @@
+//! The rules applied to one contact: the lecture's response and plane rule, and the
+//! accumulated-impulse rule for resting contacts, with their dead bands.
+
+use super::{rows::*, settings::*};
+use crate::response::{collide, split_normal_tangent};
+use crate::schedule::Change;
+use crate::vector::Vector;
+
+/// True when `vn` (relative normal velocity, negative when approaching) is an approach and not
+/// rounding residue against speeds whose squares sum to `speed_squared`.
+#[inline]
+pub(super) fn approaching(vn: f64, speed_squared: f64) -> bool {
+    vn < 0.0 && vn * vn > APPROACH_TOLERANCE * APPROACH_TOLERANCE * speed_squared
+}
+
+/// True when `change` is within the rounding of values whose squares sum to `squares` (the
+/// floor of every dead band).
+#[inline]
+pub(super) fn rounding(change: f64, squares: f64) -> bool {
+    change * change <= DEAD_BAND_ROUNDING * DEAD_BAND_ROUNDING * squares
+}
+
+/// The two passes of the velocity phase when contacts can rest (see [`integrate`](super::velocity::integrate)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Pass {
+    /// Every contact aims at not approaching (a gap may close, no more).
+    Relax,
+    /// The impacts aim at separating at `k` times their approach speed.
+    Restitution,
+}
+
+/// The lecture's rule for one pair: if it overlaps and approaches, its response with
+/// restitution `k`.
+#[inline]
+pub(super) fn lecture_pair<V: Vector>(row: &mut Row<V>, vi: &mut V, vj: &mut V, k: f64) -> bool {
+    let vn = row.normal.dot(*vi - *vj);
+    if !(row.touching && approaching(vn, vi.length_squared() + vj.length_squared())) {
+        return false;
+    }
+    let before = *vi;
+    (*vi, *vj) = collide(row.normal, *vi, *vj, row.mass[0], row.mass[1], k);
+    row.delivered += row.mass[0] * row.normal.dot(*vi - before);
+    row.impact = true;
+    true
+}
+
+/// The relative normal velocity a contact aims at in `pass`: an impact that met in the relax
+/// pass (it took an impulse at some point) separates at its bounce speed; everything else does
+/// not approach faster than its allowance.
+#[inline]
+pub(super) fn goal(pass: Pass, bounce: f64, met: bool, allowance: f64) -> f64 {
+    match pass {
+        Pass::Restitution if bounce > 0.0 && met => bounce,
+        _ => -allowance,
+    }
+}
+
+/// The accumulated-impulse rule for one pair in `pass`: push (never pull) until the pair's
+/// relative normal velocity reaches its goal.
+#[inline]
+pub(super) fn accumulate_pair<V: Vector>(
+    row: &mut Row<V>,
+    vi: &mut V,
+    vj: &mut V,
+    pass: Pass,
+    tolerance: f64,
+) -> Change {
+    let vn = row.normal.dot(*vi - *vj);
+    let goal = goal(pass, row.bounce, row.met, row.allowance);
+    let target = (row.impulse - (vn - goal) * row.effective_mass).max(0.0);
+    // (meeting changes an impact's goal in the restitution pass: that is a change too)
+    let newly_met = !row.met && target > 0.0;
+    row.met |= newly_met;
+    let change = target - row.impulse;
+    let [wi, wj] = row.inverse_mass;
+    // The dead band: a change within rounding of the speeds is not made, so a second visit
+    // with unchanged velocities changes nothing (the work lists rely on it).
+    let dv = change * (wi + wj);
+    if rounding(dv, vi.length_squared() + vj.length_squared()) {
+        return if newly_met {
+            Change::Counted
+        } else {
+            Change::Nothing
+        };
+    }
+    row.impulse = target;
+    row.delivered += change;
+    *vi += row.normal * (change * wi);
+    *vj -= row.normal * (change * wj);
+    Change::counted_if(dv.abs() > tolerance || newly_met)
+}
+
+/// The lecture's plane rule: if the particle touches the plane and heads into it,
+/// `V' = V_T - k V_N`.
+#[inline]
+pub(super) fn lecture_plane<V: Vector>(row: &PlaneRow<V>, v: &mut V) -> bool {
+    let vn = row.normal.dot(*v);
+    if !(row.touching && approaching(vn, v.length_squared())) {
+        return false;
+    }
+    let parts = split_normal_tangent(*v, row.normal);
+    *v = parts.tangent - parts.normal * row.restitution;
+    true
+}
+
+/// The accumulated-impulse rule for a particle on a plane (see [`accumulate_pair`]).
+#[inline]
+pub(super) fn accumulate_plane<V: Vector>(
+    row: &mut PlaneRow<V>,
+    v: &mut V,
+    pass: Pass,
+    tolerance: f64,
+) -> Change {
+    let vn = row.normal.dot(*v);
+    let goal = goal(pass, row.bounce, row.met, row.allowance);
+    let target = (row.impulse - (vn - goal)).max(0.0);
+    let newly_met = !row.met && target > 0.0;
+    row.met |= newly_met;
+    let change = target - row.impulse;
+    // (the dead band of `accumulate_pair`)
+    if rounding(change, v.length_squared()) {
+        return if newly_met {
+            Change::Counted
+        } else {
+            Change::Nothing
+        };
+    }
+    row.impulse = target;
+    *v += row.normal * change;
+    Change::counted_if(change.abs() > tolerance || newly_met)
+}

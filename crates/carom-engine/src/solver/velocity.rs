@@ -1,0 +1,356 @@
+//! The velocity phase and the move: gravity, impacts and resting impulses swept in substeps,
+//! then `x += v dt`.
+
+use super::{bounces::*, rows::*, rules::*, settings::*};
+use crate::schedule::{Change, Exchange};
+use crate::vector::Vector;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Gravity, the velocity phase and the move, for one step of `dt`.
+///
+/// Without gravity (resting speed 0), or with `k = 1` on every contact, this is the lecture's
+/// step: `v += g dt`, the lecture's response swept until nothing approaches, `x += v dt`.
+/// (Under gravity with every plane elastic, planes bounce at their time of impact within the
+/// move instead of in the sweeps: see [`bounce_in_move`].)
+/// Otherwise contacts can rest, and the step is Box2D's "soft step" (Catto 2024; Macklin et
+/// al. 2019, "Small steps in physics simulation"), with the lecture's formula for impacts:
+///
+/// 1. each overlapping contact approaching at least at the resting speed (and not resting
+///    last step) is an *impact*, and remembers the speed `k s` it is to separate at;
+/// 2. `substeps` times, with `h = dt / substeps`: `v += g h`; the accumulated impulses are
+///    applied (from the last step at first: warm starting); *relax* sweeps of accumulated
+///    impulses until no contact approaches (a gap may close, no more); `x += v h`; the
+///    contacts' geometry is brought up to date. What the last relax leaves is remembered for
+///    the next step;
+/// 3. *restitution* (when there were impacts): sweeps until every impact separates at its
+///    `k s` and no other contact approaches. An isolated impact so gets exactly the lecture's
+///    formula, and one against a pile at rest bounces off it as off a wall.
+///
+/// Small steps carry a pile's weight far better than as many sweeps in one step: each
+/// substep's error is `h^2` small.
+pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    settings: &SolverSettings,
+    gravity: V,
+    dt: f64,
+    m: Moving<V>,
+    c: &mut Contacts<V>,
+) -> VelocitySolve {
+    let Moving {
+        position,
+        velocity,
+        own,
+        asleep,
+    } = m;
+    let elastic_planes = c.planes.iter().all(|p| p.restitution() >= 1.0);
+    let lecture_only = settings.lecture_only(elastic_planes);
+    let substeps = if lecture_only {
+        1
+    } else {
+        settings.substeps.max(1)
+    };
+    let planes_in_move = settings.planes_in_move(c.planes, gravity);
+    let h = dt / substeps as f64;
+    let impacts = classify(
+        exchange,
+        settings,
+        velocity,
+        c,
+        substeps as f64,
+        gravity,
+        dt,
+    );
+    let parallel = c.blocks.parallel();
+    let mut solve = VelocitySolve::default();
+    for pass in (0..substeps)
+        .map(|_| Pass::Relax)
+        .chain([Pass::Restitution])
+    {
+        if pass == Pass::Restitution {
+            exchange.settle_rows(c.blocks, c.rows);
+            for row in c.rows.iter_mut() {
+                row.kept = row.impulse;
+            }
+            for row in c.plane_rows.iter_mut() {
+                row.kept = row.impulse;
+            }
+            exchange.keep_impulses();
+            if exchange.total(impacts) == 0 {
+                break;
+            }
+        } else {
+            let clock = Instant::now();
+            accelerate(parallel, &mut velocity[..own], asleep, gravity * h);
+            solve.motion += clock.elapsed();
+            if !settings.lecture_pairs() || !elastic_planes {
+                warm_start(exchange, velocity, c);
+            }
+        }
+        // (the restitution pass, once a step, may take the whole cap: an impact on a pile must
+        // travel through it for the pile to hold)
+        let cap = match pass {
+            Pass::Restitution => settings.velocity_iterations.max(1),
+            Pass::Relax => (settings.velocity_iterations / substeps).max(1),
+        };
+        let (sweeps, capped) = relax(
+            exchange,
+            settings,
+            velocity,
+            c,
+            pass,
+            cap,
+            !planes_in_move,
+            &mut solve,
+        );
+        solve.iterations += sweeps;
+        solve.capped |= capped;
+        if pass == Pass::Relax {
+            let clock = Instant::now();
+            advance_positions(parallel, &mut position[..own], &velocity[..own], asleep, h);
+            if substeps > 1 {
+                place(exchange, position, c, h);
+            }
+            solve.motion += clock.elapsed();
+        }
+    }
+    if planes_in_move {
+        let clock = Instant::now();
+        let bounces = bounce_in_move(&mut position[..own], &mut velocity[..own], c, gravity, dt);
+        solve.motion += clock.elapsed();
+        solve.responses += exchange.total(bounces);
+    }
+    exchange.settle_rows(c.blocks, c.rows);
+    solve
+}
+
+/// `v += dv` for every particle not `asleep` (empty: none is), on the thread pool when
+/// `parallel` (each particle's update is its own, so the result is the same either way).
+pub(super) fn accelerate<V: Vector>(parallel: bool, velocity: &mut [V], asleep: &[bool], dv: V) {
+    let chunk = |(c, v): (usize, &mut [V])| {
+        if asleep.is_empty() {
+            v.iter_mut().for_each(|v| *v += dv);
+        } else {
+            let asleep = &asleep[c * PARTICLE_CHUNK..][..v.len()];
+            for (v, &sleeps) in v.iter_mut().zip(asleep) {
+                if !sleeps {
+                    *v += dv;
+                }
+            }
+        }
+    };
+    if parallel {
+        velocity
+            .par_chunks_mut(PARTICLE_CHUNK)
+            .enumerate()
+            .for_each(chunk);
+    } else {
+        velocity
+            .chunks_mut(PARTICLE_CHUNK)
+            .enumerate()
+            .for_each(chunk);
+    }
+}
+
+/// `x += v h` for every particle not `asleep` (see [`accelerate`]).
+pub(super) fn advance_positions<V: Vector>(
+    parallel: bool,
+    position: &mut [V],
+    velocity: &[V],
+    asleep: &[bool],
+    h: f64,
+) {
+    let chunk = |(c, (x, v)): (usize, (&mut [V], &[V]))| {
+        if asleep.is_empty() {
+            for (x, v) in x.iter_mut().zip(v) {
+                *x += *v * h;
+            }
+        } else {
+            let asleep = &asleep[c * PARTICLE_CHUNK..][..x.len()];
+            for ((x, v), &sleeps) in x.iter_mut().zip(v).zip(asleep) {
+                if !sleeps {
+                    *x += *v * h;
+                }
+            }
+        }
+    };
+    if parallel {
+        position
+            .par_chunks_mut(PARTICLE_CHUNK)
+            .zip(velocity.par_chunks(PARTICLE_CHUNK))
+            .enumerate()
+            .for_each(chunk);
+    } else {
+        position
+            .chunks_mut(PARTICLE_CHUNK)
+            .zip(velocity.chunks(PARTICLE_CHUNK))
+            .enumerate()
+            .for_each(chunk);
+    }
+}
+
+/// One pass's sweeps (see [`integrate`]) until one changes nothing or `cap` is hit; returns the
+/// sweeps made and whether the cap was hit. After the first sweep, each sweep visits only the
+/// contacts whose particles the sweeps before it changed (the work list).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn relax<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    settings: &SolverSettings,
+    velocity: &mut [V],
+    c: &mut Contacts<V>,
+    pass: Pass,
+    cap: u32,
+    with_planes: bool,
+    solve: &mut VelocitySolve,
+) -> (u32, bool) {
+    let k = settings.restitution;
+    let resting = settings.resting_speed;
+    let tolerance = RESIDUAL_FRACTION * resting;
+    let lecture_pairs = settings.lecture_pairs();
+    let pair_rule = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+        if lecture_pairs {
+            lecture_pair(row, vi, vj, k).into()
+        } else {
+            accumulate_pair(row, vi, vj, pass, tolerance)
+        }
+    };
+    let plane_rule = |row: &mut PlaneRow<V>, v: &mut V| {
+        if row.restitution >= 1.0 || resting <= 0.0 {
+            lecture_plane(row, v).into()
+        } else {
+            accumulate_plane(row, v, pass, tolerance)
+        }
+    };
+    let blocks = c.blocks;
+    let mut visit = None;
+    for sweeps in 1..=cap {
+        let this = c.work.next(visit);
+        visit = Some(this);
+        // Planes first: a floor's support then travels up a stack within one sweep. (Not when
+        // they bounce in the move instead: see `bounce_in_move`.)
+        let on_planes = if with_planes {
+            blocks.run_planes(
+                velocity,
+                c.work.stamps,
+                this,
+                c.plane_contacts,
+                c.plane_rows,
+                &plane_rule,
+            )
+        } else {
+            0
+        };
+        // Alternate the direction within each block (symmetric Gauss-Seidel): support then
+        // spreads both ways through a stack instead of one layer per sweep.
+        let reverse = sweeps % 2 == 0;
+        let (in_blocks, leftovers) = blocks.sweep_pairs(
+            exchange,
+            velocity,
+            c.work.stamps,
+            this,
+            c.pairs,
+            c.rows,
+            reverse,
+            &pair_rule,
+        );
+        let changed = exchange.total(on_planes + in_blocks) + leftovers;
+        solve.responses += changed;
+        if changed == 0 {
+            return (sweeps, false);
+        }
+    }
+    (cap, true)
+}
+
+/// Brings every contact's normal, detection and allowance up to date with the positions.
+pub(super) fn place<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    position: &mut [V],
+    c: &mut Contacts<V>,
+    h: f64,
+) {
+    let pairs = |row: &mut Row<V>, xi: &mut V, xj: &mut V| {
+        row.place(*xi, *xj, h);
+        Change::Nothing
+    };
+    let planes = c.planes;
+    let on_planes = |row: &mut PlaneRow<V>, x: &mut V| {
+        row.place(&planes[row.plane as usize], *x, h);
+        Change::Nothing
+    };
+    c.blocks
+        .every_plane(position, c.plane_contacts, c.plane_rows, &on_planes);
+    c.blocks
+        .every_pair(exchange, position, c.pairs, c.rows, &pairs);
+}
+
+/// Marks this step's impacts (see [`integrate`]) from the velocities before any impulse, and
+/// returns how many this process found.
+pub(super) fn classify<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    settings: &SolverSettings,
+    velocity: &mut [V],
+    c: &mut Contacts<V>,
+    substeps: f64,
+    gravity: V,
+    dt: f64,
+) -> u64 {
+    // (a pair's approach speed is the same before and after gravity; a plane's is not: as in
+    // the lecture's step, the velocity update comes before the collision)
+    let (k, resting) = (settings.restitution, settings.resting_speed);
+    if resting <= 0.0 {
+        return 0;
+    }
+    // The rows' allowances were made for the whole step; a substep closes a gap in less time.
+    let pairs = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+        let speed = -row.normal.dot(*vi - *vj);
+        // An impact across a gap (a pair that would meet within the step) bounces too, when
+        // the relax pass finds it meeting: as in Box2D, a speculative contact keeps the speed
+        // it bounces with instead of eating it.
+        let fast = speed >= resting && row.impulse == 0.0;
+        row.bounce = if fast { k * speed } else { 0.0 };
+        row.allowance *= substeps;
+        (row.bounce > 0.0).into()
+    };
+    let planes = |row: &mut PlaneRow<V>, v: &mut V| {
+        let speed = -row.normal.dot(*v + gravity * dt);
+        let fast = speed >= resting && row.impulse == 0.0;
+        row.bounce = if fast { row.restitution * speed } else { 0.0 };
+        row.allowance *= substeps;
+        (row.bounce > 0.0).into()
+    };
+    let on_planes = c
+        .blocks
+        .every_plane(velocity, c.plane_contacts, c.plane_rows, &planes);
+    let (in_blocks, leftovers) = c
+        .blocks
+        .every_pair(exchange, velocity, c.pairs, c.rows, &pairs);
+    // (every process counts the leftovers: only whether there are any matters)
+    on_planes + in_blocks + leftovers
+}
+
+/// Applies every remembered impulse once, before the first sweep.
+pub(super) fn warm_start<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    velocity: &mut [V],
+    c: &mut Contacts<V>,
+) {
+    let push = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+        if row.impulse > 0.0 {
+            row.delivered += row.impulse;
+            *vi += row.normal * (row.impulse * row.inverse_mass[0]);
+            *vj -= row.normal * (row.impulse * row.inverse_mass[1]);
+        }
+        Change::Nothing
+    };
+    let on_planes = |row: &mut PlaneRow<V>, v: &mut V| {
+        if row.impulse > 0.0 {
+            *v += row.normal * row.impulse;
+        }
+        Change::Nothing
+    };
+    c.blocks
+        .every_plane(velocity, c.plane_contacts, c.plane_rows, &on_planes);
+    c.blocks
+        .every_pair(exchange, velocity, c.pairs, c.rows, &push);
+}
