@@ -2,6 +2,7 @@
 //! overlap (random, seeded; or on a lattice).
 
 use crate::raw::{RawArrangement, RawScene};
+use crate::walls::Walled;
 use crate::{Ctx, SceneError};
 use carom_engine::{Aabb, Particles, Periodic, Vector};
 use rand::{Rng, SeedableRng};
@@ -25,10 +26,11 @@ pub(crate) fn particles<V: Vector>(
     raw: &RawScene,
     domain: Option<Aabb<V>>,
     periodic: Option<Periodic>,
+    walled: Option<Walled<V>>,
 ) -> Result<Particles<V>, SceneError> {
     let wrap = |x: V| periodic.map_or(x, |p| p.wrap(x));
     let mut total = raw.particles.len() as u64;
-    let memory = physical_memory_bytes();
+    let memory = crate::machine::total_memory_bytes();
     for (i, f) in raw.fill.iter().enumerate() {
         let field = format!("fill[{i}].count");
         if f.count < 1 {
@@ -77,6 +79,9 @@ pub(crate) fn particles<V: Vector>(
         };
         let radius = ctx.positive(&f("radius"), p.radius)?;
         let mass = ctx.positive(&f("mass"), p.mass.unwrap_or(1.0))?;
+        if let Some(walls) = &walled {
+            walls.check_particle(ctx, i, position, radius)?;
+        }
         max_radius = max_radius.max(radius);
         out.push(position, velocity, radius, mass)
             .map_err(|e| ctx.err(format!("particles[{i}]"), e.to_string()))?;
@@ -108,6 +113,9 @@ pub(crate) fn particles<V: Vector>(
             }
             _ => return Err(ctx.err(format!("fill[{i}]"), "give both min and max, or neither")),
         };
+        if let Some(walls) = &walled {
+            walls.check_region(ctx, i, &region)?;
+        }
         lo = lo.min_components(region.min);
         hi = hi.max_components(region.max);
         regions.push(region);
@@ -249,14 +257,6 @@ pub(crate) fn particles<V: Vector>(
 }
 
 const GIB: f64 = (1u64 << 30) as f64;
-
-/// Total memory from `/proc/meminfo`, when the system says.
-fn physical_memory_bytes() -> Option<u64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
 
 /// A uniformly random unit vector.
 fn random_direction<V: Vector>(rng: &mut Pcg64) -> V {

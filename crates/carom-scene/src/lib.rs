@@ -8,8 +8,10 @@
 
 mod error;
 mod fill;
+pub mod machine;
 mod presets;
 mod raw;
+mod walls;
 
 pub use error::SceneError;
 pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
@@ -29,6 +31,10 @@ use std::path::Path;
 
 /// Steps run when a scene gives no `steps`.
 pub const DEFAULT_STEPS: u64 = 1000;
+
+/// The most steps a run may ask for (the scene's `steps`, `--steps`): 10^12, decades at a
+/// microsecond a step. More is a typo (an extra digit or two), refused before any work.
+pub const MAX_STEPS: u64 = 1_000_000_000_000;
 
 /// A checked scene in `V`'s dimension, ready to become a [`World`].
 #[derive(Debug, Clone)]
@@ -292,8 +298,8 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     let dt = ctx.positive("dt", raw.dt)?;
     let steps = match raw.steps {
         None => DEFAULT_STEPS,
-        Some(s) if s >= 0 => s as u64,
-        Some(s) => return Err(ctx.err("steps", format!("must be >= 0, got {s}"))),
+        Some(s) if (0..=MAX_STEPS as i64).contains(&s) => s as u64,
+        Some(s) => return Err(ctx.err("steps", format!("must be in 0..={MAX_STEPS}, got {s}"))),
     };
     let gravity = match &raw.gravity {
         Some(g) => ctx.vector::<V>("gravity", g)?,
@@ -441,7 +447,8 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     }
 
     let wrap = domain.and_then(|d| Periodic::new(&d, &periodic));
-    let particles = fill::particles::<V>(ctx, &raw, domain, wrap)?;
+    let walled = crate::walls::Walled::new(domain, walls.is_some(), periodic);
+    let particles = fill::particles::<V>(ctx, &raw, domain, wrap, walled)?;
     if let (Some(d), true) = (domain, wraps) {
         let shortest = shortest_period(particles.max_radius());
         for a in (0..V::DIM).filter(|&a| periodic[a]) {
