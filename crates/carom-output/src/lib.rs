@@ -3,7 +3,6 @@
 //! Output formats for carom. Every file is written whole or not at all: the bytes go to a
 //! temporary file in the same folder, which is flushed, synced and then renamed over the
 //! target, so a crash or a bad input never leaves a half-written file behind.
-#![warn(missing_docs)]
 
 pub mod checkpoint;
 pub mod observables;

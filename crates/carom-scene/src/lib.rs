@@ -4,7 +4,6 @@
 //! set (including `[[fill]]` blocks), returning an [`AnyScene`] in 2D or 3D. Every error is a
 //! [`SceneError`] that names the file and the field. The format is documented in the
 //! repository's `docs/scene-format.md`.
-#![warn(missing_docs)]
 
 mod error;
 mod fill;

@@ -208,6 +208,7 @@ type Observations = ObservablesCsv<BufWriter<CsvFile>>;
 /// The files the loop writes into, each with its interval and path.
 struct Writers<'a> {
     outputs: &'a Outputs,
+    /// Open on the process that writes output only.
     trajectory: Option<(Trajectory, u64, PathBuf)>,
     observations: Option<(Observations, u64, PathBuf)>,
 }
@@ -219,11 +220,13 @@ impl<'a> Writers<'a> {
         stepper: &mut S,
         outputs: &'a Outputs,
     ) -> Result<Self, Failure> {
-        let trajectory = match (&outputs.trajectory, stepper.world()) {
-            (Some((path, every)), Some(world)) => {
-                Some((Trajectory::open(path, world)?, *every, path.clone()))
-            }
-            _ => None,
+        // collective in a split run, as in `after_step`
+        let trajectory = match &outputs.trajectory {
+            None => None,
+            Some((path, every)) => match stepper.world() {
+                Some(world) => Some((Trajectory::open(path, world)?, *every, path.clone())),
+                None => None,
+            },
         };
         let observations = match &outputs.observe {
             None => None,
@@ -260,9 +263,13 @@ impl<'a> Writers<'a> {
         stepper: &mut S,
         step: u64,
     ) -> Result<(), Failure> {
-        if let Some((trajectory, every, path)) = &mut self.trajectory {
-            if step % *every == 0 {
-                if let Some(world) = stepper.world() {
+        if let Some((_, every)) = &self.outputs.trajectory {
+            // `world` is collective in a split run: every rank calls it, and only the one that
+            // writes (the one with a trajectory open) gets the world
+            if step % every == 0 {
+                if let (Some(world), Some((trajectory, _, path))) =
+                    (stepper.world(), &mut self.trajectory)
+                {
                     trajectory
                         .frame(world)
                         .map_err(|e| Failure::write(path, e))?;
