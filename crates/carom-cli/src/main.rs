@@ -5,6 +5,7 @@ mod cluster;
 mod driver;
 mod failure;
 mod input;
+mod launch;
 mod render;
 mod resume;
 mod run;

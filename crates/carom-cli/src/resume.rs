@@ -2,11 +2,12 @@
 //! `carom run`.
 
 use crate::driver::step::{Outputs, Settings};
-use crate::driver::{run_world, Labels};
+use crate::driver::Labels;
 use crate::failure::Failure;
 use crate::input::{
     apply_overrides, check_distinct, check_output_path, check_ranks, check_steps, set_threads,
 };
+use crate::launch::run_world;
 use carom_engine::{ContactImpulses, Vector};
 use carom_output::checkpoint::Checkpoint;
 use std::path::{Path, PathBuf};

@@ -1,12 +1,13 @@
 //! `carom run` and `carom check`.
 
 use crate::driver::step::{Outputs, Settings};
-use crate::driver::{run_world, Labels};
+use crate::driver::Labels;
 use crate::failure::Failure;
 use crate::input::{
     apply_overrides, check_cells, check_distinct, check_output_path, check_ranks, check_steps,
     load_scene, set_threads,
 };
+use crate::launch::run_world;
 use carom_engine::Vector;
 use carom_scene::{AnyScene, Scene};
 use clap::ValueEnum;
