@@ -448,6 +448,8 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     let wrap = domain.and_then(|d| Periodic::new(&d, &periodic));
     let walled = crate::walls::Walled::new(domain, walls.is_some(), periodic);
     let particles = fill::particles::<V>(ctx, &raw, domain, wrap, walled)?;
+    let fills: Vec<usize> = raw.fill.iter().map(|f| f.count as usize).collect();
+    crate::walls::check_planes(ctx, &planes, &particles, raw.particles.len(), &fills)?;
     if let (Some(d), true) = (domain, wraps) {
         let shortest = shortest_period(particles.max_radius());
         for a in (0..V::DIM).filter(|&a| periodic[a]) {

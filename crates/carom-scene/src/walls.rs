@@ -1,10 +1,11 @@
-//! What the walls of `[domain] walls = true` can hold: every explicit particle wholly inside
-//! them, and every `[[fill]]` region too. The engine would push a particle found outside back
+//! What the walls of `[domain] walls = true` and the `[[planes]]` can hold: every explicit
+//! particle wholly inside the walls and in front of every plane, and every `[[fill]]` region
+//! (and so every particle it places) too. The engine would push a particle found outside back
 //! in on the first step (and one wider than the box out of it), so such a scene is refused
 //! here, naming the field, as every other bad scene is.
 
 use crate::{Ctx, SceneError};
-use carom_engine::{Aabb, Vector};
+use carom_engine::{Aabb, Particles, Plane, Vector};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
@@ -98,4 +99,58 @@ impl<V: Vector> Walled<V> {
         }
         Ok(())
     }
+}
+
+/// Every particle must lie wholly on the allowed side of every `[[planes]]` entry (the side its
+/// normal points to): the engine would push one found behind a plane through it on the first
+/// step. An explicit particle is named by its position; a fill's particle by its fill (its
+/// region reaches past the plane). `fills`: how many particles each fill placed, after the
+/// `explicit` ones.
+pub(crate) fn check_planes<V: Vector>(
+    ctx: &Ctx,
+    planes: &[Plane<V>],
+    particles: &Particles<V>,
+    explicit: usize,
+    fills: &[usize],
+) -> Result<(), SceneError> {
+    if planes.is_empty() {
+        return Ok(());
+    }
+    let owner = |id: usize| -> String {
+        if id < explicit {
+            return format!("particles[{id}].position");
+        }
+        let mut start = explicit;
+        for (i, &count) in fills.iter().enumerate() {
+            if id < start + count {
+                return format!("fill[{i}]");
+            }
+            start += count;
+        }
+        format!("particles[{id}]")
+    };
+    let rows = particles.positions().iter().zip(particles.radii());
+    for (id, (&x, &r)) in rows.enumerate() {
+        for (j, plane) in planes.iter().enumerate() {
+            let d = plane.signed_distance(x);
+            // a hair of slack for the rounding of the normalised normal
+            if d < r * (1.0 - 1e-9) {
+                let what = if id < explicit {
+                    "the particle"
+                } else {
+                    "a particle this fill places"
+                };
+                return Err(ctx.err(
+                    owner(id),
+                    format!(
+                        "{what} (radius {r}) lies {} planes[{j}]: its centre is {d} from the \
+                         plane, on the side its normal points to, and must be at least the \
+                         radius",
+                        if d < 0.0 { "behind" } else { "partly behind" }
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }

@@ -127,3 +127,40 @@ fn every_shipped_scene_is_still_accepted() {
         parse(text, name).unwrap_or_else(|e| panic!("{e}"));
     }
 }
+
+#[test]
+fn particles_behind_a_plane_are_refused() {
+    let scene = |body: &str| {
+        format!(
+            "dimensions = 2\ndt = 0.01\n[[planes]]\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n\
+             {body}"
+        )
+    };
+    // behind the floor (a sign typo in the normal does this to every particle)
+    let e = refused(&scene(
+        "[[particles]]\nposition = [0.0, -5.0]\nradius = 1.0\n",
+    ));
+    assert_eq!(field(&e), "particles[0].position", "{e}");
+    assert!(e.to_string().contains("behind planes[0]"), "{e}");
+    // partly through it
+    let e = refused(&scene(
+        "[[particles]]\nposition = [0.0, 0.5]\nradius = 1.0\n",
+    ));
+    assert!(e.to_string().contains("partly behind planes[0]"), "{e}");
+    // resting on it is fine
+    assert!(parse(
+        &scene("[[particles]]\nposition = [3.0, 1.0]\nradius = 1.0\n"),
+        "ok"
+    )
+    .is_ok());
+    // a fill whose region reaches below the floor
+    let e = refused(&scene(
+        "[[fill]]\ncount = 20\nradius = 0.5\nmin = [-10.0, -10.0]\nmax = [10.0, 10.0]\n",
+    ));
+    assert_eq!(field(&e), "fill[0]", "{e}");
+    assert!(parse(
+        &scene("[[fill]]\ncount = 20\nradius = 0.5\nmin = [-10.0, 0.0]\nmax = [10.0, 10.0]\n"),
+        "ok"
+    )
+    .is_ok());
+}
