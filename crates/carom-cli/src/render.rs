@@ -307,8 +307,9 @@ impl Job<'_> {
         }
     }
 
-    fn run<V: Vector>(&self, mut world: World<V>, plan: Plan) -> Result<(), Failure> {
-        let options = RenderOptions {
+    /// How frames are drawn, from the flags.
+    fn options(&self) -> RenderOptions {
+        RenderOptions {
             width: self.size.0,
             height: self.size.1,
             colouring: match self.args.color {
@@ -323,12 +324,14 @@ impl Job<'_> {
                 ..Camera::default()
             },
             ..RenderOptions::default()
-        };
+        }
+    }
+
+    fn run<V: Vector>(&self, mut world: World<V>, plan: Plan) -> Result<(), Failure> {
         let dt = world.config().dt;
         let frame_seconds = dt * plan.every as f64;
         let out = &self.args.out;
-        let write_error =
-            |e: io::Error| Failure::runtime(format!("cannot write {}: {e}", out.display()));
+        let write_error = |e: io::Error| Failure::write(out, e);
         let mut timing = Timing::default();
         let started = Instant::now();
         let progress = ProgressBar::new(plan.last_step());
@@ -339,7 +342,7 @@ impl Job<'_> {
         let mut pipeline = Pipeline {
             world: &mut world,
             plan,
-            options,
+            options: self.options(),
             progress: &progress,
             timing: &mut timing,
         };

@@ -216,22 +216,7 @@ impl Checkpoint {
 
     /// Reads and checks a checkpoint.
     pub fn read_from(bytes: &[u8]) -> Result<Self, CheckpointError> {
-        if bytes.len() < 8 || &bytes[..8] != MAGIC {
-            return Err(CheckpointError::NotACheckpoint);
-        }
-        if bytes.len() < 16 {
-            return Err(Damage::TruncatedHeader.into());
-        }
-        let (body, tail) = bytes.split_at(bytes.len() - 8);
-        let stored = u64::from_le_bytes(tail.try_into().expect("8 bytes"));
-        let mut r = Reader { bytes: body, at: 8 };
-        let version = r.u32()?;
-        if !(OLDEST_VERSION..=FORMAT_VERSION).contains(&version) {
-            return Err(CheckpointError::Version(version));
-        }
-        if fnv(FNV_OFFSET, body) != stored {
-            return Err(Damage::Checksum.into());
-        }
+        let (mut r, version) = Reader::open(bytes)?;
         let dimensions = r.u32()?;
         if dimensions != 2 && dimensions != 3 {
             return Err(Damage::Dimensions(dimensions).into());
@@ -318,7 +303,29 @@ struct Reader<'a> {
     at: usize,
 }
 
-impl Reader<'_> {
+impl<'a> Reader<'a> {
+    /// Checks the magic bytes, the version and the checksum; returns a reader of the body
+    /// just after the version, and the version.
+    fn open(bytes: &'a [u8]) -> Result<(Self, u32), CheckpointError> {
+        if bytes.len() < 8 || &bytes[..8] != MAGIC {
+            return Err(CheckpointError::NotACheckpoint);
+        }
+        if bytes.len() < 16 {
+            return Err(Damage::TruncatedHeader.into());
+        }
+        let (body, tail) = bytes.split_at(bytes.len() - 8);
+        let stored = u64::from_le_bytes(tail.try_into().expect("8 bytes"));
+        let mut r = Reader { bytes: body, at: 8 };
+        let version = r.u32()?;
+        if !(OLDEST_VERSION..=FORMAT_VERSION).contains(&version) {
+            return Err(CheckpointError::Version(version));
+        }
+        if fnv(FNV_OFFSET, body) != stored {
+            return Err(Damage::Checksum.into());
+        }
+        Ok((r, version))
+    }
+
     fn take(&mut self, n: usize) -> Result<&[u8], Damage> {
         if self.left() < n {
             return Err(Damage::Truncated);

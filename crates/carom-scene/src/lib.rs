@@ -324,10 +324,65 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     }
     let wraps = periodic.iter().any(|&a| a);
 
+    let (broad_phase, grid_cells) = broad_phase::<V>(ctx, &raw, walls.is_some(), wraps)?;
+    let SolverSettings {
+        velocity_iterations,
+        position_iterations,
+        substeps,
+        resting_speed,
+        sleep,
+        sleep_speed,
+        sleep_time,
+    } = solver(ctx, &raw)?;
+    let planes = planes::<V>(ctx, &raw, restitution)?;
+
+    let wrap = domain.and_then(|d| Periodic::new(&d, &periodic));
+    let walled = crate::walls::Walled::new(domain, walls.is_some(), periodic);
+    let particles = fill::particles::<V>(ctx, &raw, domain, wrap, walled)?;
+    let fills: Vec<usize> = raw.fill.iter().map(|f| f.count as usize).collect();
+    crate::walls::check_planes(ctx, &planes, &particles, raw.particles.len(), &fills)?;
+    if let (Some(d), true) = (domain, wraps) {
+        check_periods(ctx, &d, &periodic, particles.max_radius())?;
+    }
+
+    Ok(Scene {
+        name: raw.name,
+        description: raw.description,
+        steps,
+        config: WorldConfig {
+            dt,
+            gravity,
+            restitution,
+            velocity_iterations,
+            position_iterations,
+            substeps,
+            domain,
+            periodic,
+            broad_phase,
+            grid_cells,
+            resting_speed,
+            sleep,
+            sleep_speed,
+            sleep_time,
+        },
+        walls,
+        planes,
+        particles,
+    })
+}
+
+/// `[broadphase]`: the kind (by default the grid when `walls` close the domain or it `wraps`,
+/// else the unbounded hash) and the grid's cells, if given.
+fn broad_phase<V: Vector>(
+    ctx: &Ctx,
+    raw: &RawScene,
+    walls: bool,
+    wraps: bool,
+) -> Result<(BroadPhaseKind, Option<Vec<usize>>), SceneError> {
     // Default: the lecture's grid when walls close the domain (or it wraps around), otherwise
     // the unbounded hash (particles may roam anywhere, and a grid would clamp them into its
     // border cells).
-    let mut broad_phase = if walls.is_some() || wraps {
+    let mut broad_phase = if walls || wraps {
         BroadPhaseKind::Grid
     } else {
         BroadPhaseKind::Hash
@@ -381,6 +436,22 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         }
     }
 
+    Ok((broad_phase, grid_cells))
+}
+
+/// `[solver]`, checked, with the defaults filled in.
+struct SolverSettings {
+    velocity_iterations: u32,
+    position_iterations: u32,
+    substeps: u32,
+    resting_speed: Option<f64>,
+    sleep: bool,
+    sleep_speed: Option<f64>,
+    sleep_time: f64,
+}
+
+/// `[solver]`, checked.
+fn solver(ctx: &Ctx, raw: &RawScene) -> Result<SolverSettings, SceneError> {
     let (mut velocity_iterations, mut position_iterations, mut substeps) = (
         DEFAULT_VELOCITY_ITERATIONS,
         DEFAULT_POSITION_ITERATIONS,
@@ -429,6 +500,23 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         None => carom_engine::sleep::DEFAULT_SLEEP_TIME,
     };
 
+    Ok(SolverSettings {
+        velocity_iterations,
+        position_iterations,
+        substeps,
+        resting_speed,
+        sleep,
+        sleep_speed,
+        sleep_time,
+    })
+}
+
+/// `[[planes]]`, checked (`restitution`: the scene's, for planes without their own).
+fn planes<V: Vector>(
+    ctx: &Ctx,
+    raw: &RawScene,
+    restitution: f64,
+) -> Result<Vec<Plane<V>>, SceneError> {
     let mut planes = Vec::with_capacity(raw.planes.len());
     for (i, p) in raw.planes.iter().enumerate() {
         let f = |k: &str| format!("planes[{i}].{k}");
@@ -445,50 +533,29 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         planes.push(plane);
     }
 
-    let wrap = domain.and_then(|d| Periodic::new(&d, &periodic));
-    let walled = crate::walls::Walled::new(domain, walls.is_some(), periodic);
-    let particles = fill::particles::<V>(ctx, &raw, domain, wrap, walled)?;
-    let fills: Vec<usize> = raw.fill.iter().map(|f| f.count as usize).collect();
-    crate::walls::check_planes(ctx, &planes, &particles, raw.particles.len(), &fills)?;
-    if let (Some(d), true) = (domain, wraps) {
-        let shortest = shortest_period(particles.max_radius());
-        for a in (0..V::DIM).filter(|&a| periodic[a]) {
-            let length = d.max.get(a) - d.min.get(a);
-            if length <= shortest {
-                return Err(ctx.err(
-                    "domain.periodic",
-                    format!(
-                        "axis {a} is {length} long, but a periodic axis must be longer than \
-                         {shortest} (4 (2 + slop) times the largest radius, so that only one \
-                         image of a particle can touch another)"
-                    ),
-                ));
-            }
+    Ok(planes)
+}
+
+/// Every periodic axis of `domain` longer than [`shortest_period`] for `max_radius`.
+fn check_periods<V: Vector>(
+    ctx: &Ctx,
+    domain: &Aabb<V>,
+    periodic: &[bool; 3],
+    max_radius: f64,
+) -> Result<(), SceneError> {
+    let shortest = shortest_period(max_radius);
+    for a in (0..V::DIM).filter(|&a| periodic[a]) {
+        let length = domain.max.get(a) - domain.min.get(a);
+        if length <= shortest {
+            return Err(ctx.err(
+                "domain.periodic",
+                format!(
+                    "axis {a} is {length} long, but a periodic axis must be longer than \
+                     {shortest} (4 (2 + slop) times the largest radius, so that only one \
+                     image of a particle can touch another)"
+                ),
+            ));
         }
     }
-
-    Ok(Scene {
-        name: raw.name,
-        description: raw.description,
-        steps,
-        config: WorldConfig {
-            dt,
-            gravity,
-            restitution,
-            velocity_iterations,
-            position_iterations,
-            substeps,
-            domain,
-            periodic,
-            broad_phase,
-            grid_cells,
-            resting_speed,
-            sleep,
-            sleep_speed,
-            sleep_time,
-        },
-        walls,
-        planes,
-        particles,
-    })
+    Ok(())
 }
