@@ -5,7 +5,7 @@
 //! resident memory is its own and one case's caches and allocations cannot help another.
 //! Scenes are built from TOML text through the same scene loader as `carom run`.
 
-use crate::run::Failure;
+use crate::failure::Failure;
 use carom_engine::Vector;
 use carom_scene::AnyScene;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -21,13 +21,14 @@ pub struct BenchArgs {
     #[arg(long)]
     pub quick: bool,
     /// Largest particle count in the scale sweep.
-    #[arg(long, default_value_t = 4_000_000)]
+    #[arg(long, default_value_t = 4_000_000, allow_negative_numbers = true)]
     pub max: u64,
     /// Which part to run.
     #[arg(long, value_enum, default_value_t = Part::All)]
     pub only: Part,
-    /// Worker threads for every case (default: RAYON_NUM_THREADS, else one per core).
-    #[arg(long)]
+    /// Worker threads for every case, 1 to 8 per core (at least 64 on any machine; default:
+    /// RAYON_NUM_THREADS, else one per core).
+    #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
     /// Print the results as JSON instead of a table.
     #[arg(long)]
@@ -112,29 +113,11 @@ struct Machine {
 }
 
 fn machine() -> Machine {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("model name"))
-                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown".into());
-    let memory_gib = std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("MemTotal:"))
-                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
-        })
-        .map(|kib| kib / (1024.0 * 1024.0))
-        .unwrap_or(0.0);
+    use carom_scene::machine;
     Machine {
-        cpu,
-        cores: std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1),
-        memory_gib,
+        cpu: machine::cpu_model().unwrap_or_else(|| "unknown".into()),
+        cores: machine::cores(),
+        memory_gib: machine::total_memory_bytes().map_or(0.0, |b| b as f64 / (1u64 << 30) as f64),
         os: std::env::consts::OS.to_string(),
     }
 }
@@ -346,12 +329,10 @@ pub fn bench(args: &BenchArgs) -> Result<(), Failure> {
     if let Some(json) = &args.case {
         return run_case(json);
     }
-    if args.threads == Some(0) {
-        return Err(Failure::input("--threads: must be at least 1"));
-    }
+    crate::input::check_threads(args.threads)?;
     for (flag, path) in [("--out", &args.out), ("--plot", &args.plot)] {
         if let Some(p) = path {
-            crate::run::check_output_path(flag, p)?;
+            crate::input::check_output_path(flag, p)?;
         }
     }
     let cases = cases(args);
@@ -541,25 +522,16 @@ fn print_phases(r: &Measured) {
     );
 }
 
-/// Peak resident memory of this process so far, from /proc.
+/// Peak resident memory of this process so far (0 where the system does not say).
 fn peak_rss_bytes() -> u64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("VmHWM:"))
-                .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
-        })
-        .map(|kib| kib * 1024)
-        .unwrap_or(0)
+    carom_scene::machine::peak_rss_bytes().unwrap_or(0)
 }
 
 fn run_case(json: &str) -> Result<(), Failure> {
     let case: Case =
         serde_json::from_str(json).map_err(|e| Failure::input(format!("--case: {e}")))?;
     let started = Instant::now();
-    let scene = carom_scene::parse(&case.toml, &format!("bench:{}", case.name))
-        .map_err(|e| Failure::input(e.to_string()))?;
+    let scene = carom_scene::parse(&case.toml, &format!("bench:{}", case.name))?;
     let measured = match scene {
         AnyScene::Two(s) => measure(&case, s, started),
         AnyScene::Three(s) => measure(&case, s, started),

@@ -6,11 +6,12 @@
 //! through [`carom_output::write_atomic`], MP4 is written by `ffmpeg` to a temporary in the
 //! same folder that is renamed into place only when `ffmpeg` succeeded.
 
-use crate::run::{check_output_path, load_scene, set_threads, Failure};
+use crate::failure::Failure;
+use crate::input::{check_output_path, check_steps, load_scene, parse_size, set_threads};
 use carom_engine::{Vector, World};
 use carom_render::{colour_range, Bounds, Camera, Colouring, Frame, GifFrame, GifWriter, Pixmap};
 use carom_render::{RenderOptions, MAX_SIZE};
-use carom_scene::AnyScene;
+use carom_scene::{AnyScene, MAX_STEPS};
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -31,16 +32,16 @@ pub struct RenderArgs {
     /// Written whole or not at all.
     #[arg(long)]
     pub out: PathBuf,
-    /// Number of frames. Default 1: the state after the run's steps. With more, frame i
-    /// shows step i * every.
-    #[arg(long)]
+    /// Number of frames, at most 100000. Default 1: the state after the run's steps. With
+    /// more, frame i shows step i * every.
+    #[arg(long, allow_negative_numbers = true)]
     pub frames: Option<u64>,
     /// Steps between frames. Default: the run's steps spread over the frames; given alone,
     /// frames cover the run (steps / every + 1 frames).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub every: Option<u64>,
-    /// Number of steps of the run (overrides the scene's `steps`).
-    #[arg(long)]
+    /// Number of steps of the run (overrides the scene's `steps`), at most 10^12.
+    #[arg(long, allow_negative_numbers = true)]
     pub steps: Option<u64>,
     /// Image size in pixels, WIDTHxHEIGHT, each 1..=8192.
     #[arg(long, default_value = "800x800")]
@@ -59,8 +60,9 @@ pub struct RenderArgs {
     /// 3D camera: elevation, degrees, within (-90, 90); positive looks down.
     #[arg(long, default_value_t = 25.0, allow_negative_numbers = true)]
     pub pitch: f64,
-    /// Worker threads (default: RAYON_NUM_THREADS, else one per core).
-    #[arg(long)]
+    /// Worker threads, 1 to 8 per core (at least 64 on any machine; default:
+    /// RAYON_NUM_THREADS, else one per core).
+    #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
 }
 
@@ -82,6 +84,9 @@ enum Format {
     Gif,
     Mp4,
 }
+
+/// The most frames one render may draw (an hour of video at 25 frames per second is 90,000).
+const MAX_FRAMES: u64 = 100_000;
 
 /// Which steps to draw: frame i after `first + i * every` steps.
 #[derive(Clone, Copy, Debug)]
@@ -105,21 +110,6 @@ fn batch_size(particles: usize, (w, h): (u32, u32)) -> usize {
     let per_frame = particles * 56 + w as usize * h as usize * 8 + 1;
     let by_memory = (512usize << 20) / per_frame;
     by_memory.clamp(1, 8)
-}
-
-fn parse_size(text: &str) -> Result<(u32, u32), Failure> {
-    let bad = || {
-        Failure::input(format!(
-            "--size: expected WIDTHxHEIGHT with each side 1..={MAX_SIZE}, e.g. 800x800, got `{text}`"
-        ))
-    };
-    let (w, h) = text.split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: u32 = w.trim().parse().map_err(|_| bad())?;
-    let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    if w == 0 || h == 0 || w > MAX_SIZE || h > MAX_SIZE {
-        return Err(bad());
-    }
-    Ok((w, h))
 }
 
 fn format_of(out: &Path) -> Result<Format, Failure> {
@@ -195,10 +185,16 @@ fn plan(args: &RenderArgs, steps: u64) -> Result<Plan, Failure> {
 
 pub fn render(args: &RenderArgs) -> Result<(), Failure> {
     // Every flag is checked before the scene is loaded or a step is taken.
-    let size = parse_size(&args.size)?;
+    let size = parse_size("--size", &args.size, 1..=MAX_SIZE)?;
     if args.frames == Some(0) {
         return Err(Failure::input("--frames: must be at least 1"));
     }
+    if let Some(frames) = args.frames.filter(|&n| n > MAX_FRAMES) {
+        return Err(Failure::input(format!(
+            "--frames: {frames} is more than the limit of {MAX_FRAMES}"
+        )));
+    }
+    check_steps("--steps", args.steps)?;
     if args.every == Some(0) {
         return Err(Failure::input("--every: must be at least 1"));
     }
@@ -247,18 +243,18 @@ pub fn render(args: &RenderArgs) -> Result<(), Failure> {
     };
     match scene {
         AnyScene::Two(s) => {
-            let steps = args.steps.unwrap_or(s.steps);
+            let plan = job.plan(args.steps.unwrap_or(s.steps))?;
             let world = s
                 .into_world()
                 .map_err(|e| Failure::input(format!("{}: {e}", job.origin)))?;
-            job.run(world, steps)
+            job.run(world, plan)
         }
         AnyScene::Three(s) => {
-            let steps = args.steps.unwrap_or(s.steps);
+            let plan = job.plan(args.steps.unwrap_or(s.steps))?;
             let world = s
                 .into_world()
                 .map_err(|e| Failure::input(format!("{}: {e}", job.origin)))?;
-            job.run(world, steps)
+            job.run(world, plan)
         }
     }
 }
@@ -280,7 +276,8 @@ struct Timing {
 }
 
 impl Job<'_> {
-    fn run<V: Vector>(&self, mut world: World<V>, steps: u64) -> Result<(), Failure> {
+    /// The frame plan for a run of `steps`, checked before the world is built.
+    fn plan(&self, steps: u64) -> Result<Plan, Failure> {
         let plan = plan(self.args, steps)?;
         if self.format == Format::Png && plan.frames > 1 {
             return Err(Failure::input(format!(
@@ -288,12 +285,31 @@ impl Job<'_> {
                 plan.frames
             )));
         }
-        plan.frames
+        if plan.frames > MAX_FRAMES {
+            return Err(Failure::input(format!(
+                "--every: makes {} frames, more than the limit of {MAX_FRAMES}; draw fewer \
+                 (--frames) or farther apart (a larger --every)",
+                plan.frames
+            )));
+        }
+        let last = plan
+            .frames
             .checked_sub(1)
             .and_then(|n| n.checked_mul(plan.every))
-            .and_then(|s| s.checked_add(plan.first))
-            .ok_or_else(|| Failure::input("--frames x --every: too many steps"))?;
-        let options = RenderOptions {
+            .and_then(|s| s.checked_add(plan.first));
+        match last {
+            Some(last) if last <= MAX_STEPS => Ok(plan),
+            _ => Err(Failure::input(format!(
+                "--frames x --every: {} frames {} steps apart go past the limit of {MAX_STEPS} \
+                 steps",
+                plan.frames, plan.every
+            ))),
+        }
+    }
+
+    /// How frames are drawn, from the flags.
+    fn options(&self) -> RenderOptions {
+        RenderOptions {
             width: self.size.0,
             height: self.size.1,
             colouring: match self.args.color {
@@ -308,12 +324,14 @@ impl Job<'_> {
                 ..Camera::default()
             },
             ..RenderOptions::default()
-        };
+        }
+    }
+
+    fn run<V: Vector>(&self, mut world: World<V>, plan: Plan) -> Result<(), Failure> {
         let dt = world.config().dt;
         let frame_seconds = dt * plan.every as f64;
         let out = &self.args.out;
-        let write_error =
-            |e: io::Error| Failure::runtime(format!("cannot write {}: {e}", out.display()));
+        let write_error = |e: io::Error| Failure::write(out, e);
         let mut timing = Timing::default();
         let started = Instant::now();
         let progress = ProgressBar::new(plan.last_step());
@@ -324,7 +342,7 @@ impl Job<'_> {
         let mut pipeline = Pipeline {
             world: &mut world,
             plan,
-            options,
+            options: self.options(),
             progress: &progress,
             timing: &mut timing,
         };
@@ -550,12 +568,13 @@ mod tests {
 
     #[test]
     fn sizes_parse_and_refuse() {
+        let parse_size = |text| parse_size("--size", text, 1..=MAX_SIZE);
         assert_eq!(parse_size("800x600").ok(), Some((800, 600)));
         assert_eq!(parse_size("8192X1").ok(), Some((8192, 1)));
         for bad in ["0x10", "10x0", "8193x10", "10", "axb", "-1x5", ""] {
             let e = parse_size(bad).expect_err(bad);
-            assert_eq!(e.status, 2);
-            assert!(e.message.starts_with("--size"), "{}", e.message);
+            assert_eq!(e.status(), 2);
+            assert!(e.to_string().starts_with("--size"), "{e}");
         }
     }
 

@@ -1,6 +1,7 @@
 //! `carom view`: the interactive viewer (see the carom-viewer crate).
 
-use crate::run::Failure;
+use crate::failure::Failure;
+use crate::input::{parse_size, scene_text};
 use std::path::PathBuf;
 
 /// Options of `carom view`.
@@ -13,44 +14,38 @@ pub struct ViewArgs {
     pub preset: Option<String>,
     /// Replace the scene's particles with one fill of this many (keeps its domain and fill
     /// settings; the panel's "rebuild" does the same).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub count: Option<u64>,
     /// Particle radius for `--count` (default: the scene's largest radius).
-    #[arg(long, requires = "count")]
+    #[arg(long, requires = "count", allow_negative_numbers = true)]
     pub radius: Option<f64>,
     /// Start paused.
     #[arg(long)]
     pub paused: bool,
-    /// Window size in points, `WIDTHxHEIGHT`.
-    #[arg(long, default_value = "1280x800", value_parser = parse_size)]
-    pub size: [f32; 2],
+    /// Window size in points, `WIDTHxHEIGHT`, each side 200..=16384.
+    #[arg(long, default_value = "1280x800")]
+    pub size: String,
     /// Select this particle id at the start, as if clicked (for screenshots).
-    #[arg(long, hide = true)]
+    #[arg(long, hide = true, allow_negative_numbers = true)]
     pub select: Option<usize>,
     /// Close after this many frames (for scripted runs and tests).
-    #[arg(long, hide = true)]
+    #[arg(long, hide = true, allow_negative_numbers = true)]
     pub exit_after_frames: Option<u64>,
     /// Draw this many frames after a short warm-up, print the mean frames per second, close.
-    #[arg(long, hide = true)]
+    #[arg(long, hide = true, allow_negative_numbers = true)]
     pub benchmark_frames: Option<u64>,
 }
 
-fn parse_size(s: &str) -> Result<[f32; 2], String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or("expected WIDTHxHEIGHT, e.g. 1280x800")?;
-    let w: f32 = w.trim().parse().map_err(|_| format!("bad width `{w}`"))?;
-    let h: f32 = h.trim().parse().map_err(|_| format!("bad height `{h}`"))?;
-    if !(200.0..=16384.0).contains(&w) || !(200.0..=16384.0).contains(&h) {
-        return Err("width and height must be in 200..=16384".into());
-    }
-    Ok([w, h])
-}
-
 pub fn view(args: &ViewArgs) -> Result<(), Failure> {
-    let (mut text, origin) = crate::run::scene_text(args.scene.as_deref(), args.preset.as_deref())?;
+    let (w, h) = parse_size("--size", &args.size, 200..=16384)?;
+    let (mut text, origin) = scene_text(args.scene.as_deref(), args.preset.as_deref())?;
     // Check the scene here, so that a bad file is one message and exit status 2, not a window.
-    let scene = carom_scene::parse(&text, &origin).map_err(|e| Failure::input(e.to_string()))?;
+    let mut scene = carom_scene::parse(&text, &origin)?;
+    if let Some(radius) = args.radius.filter(|r| !(r.is_finite() && *r > 0.0)) {
+        return Err(Failure::input(format!(
+            "--radius: must be a finite number > 0, got {radius}"
+        )));
+    }
     if let Some(count) = args.count {
         let radius = match args.radius {
             Some(r) => r,
@@ -64,8 +59,18 @@ pub fn view(args: &ViewArgs) -> Result<(), Failure> {
         };
         text = carom_viewer::control::refill(&text, count, radius)
             .map_err(|e| Failure::input(format!("--count/--radius: {e}")))?;
-        carom_scene::parse(&text, &origin)
+        scene = carom_scene::parse(&text, &origin)
             .map_err(|e| Failure::input(format!("--count/--radius: {e}")))?;
+    }
+    let particles = match &scene {
+        carom_scene::AnyScene::Two(s) => s.particles.len(),
+        carom_scene::AnyScene::Three(s) => s.particles.len(),
+    };
+    if let Some(id) = args.select.filter(|&id| id >= particles) {
+        return Err(Failure::input(format!(
+            "--select: no particle {id}; the scene has {particles} (ids 0 to {})",
+            particles.saturating_sub(1)
+        )));
     }
     carom_viewer::run(carom_viewer::ViewOptions {
         scene_text: text,
@@ -74,20 +79,7 @@ pub fn view(args: &ViewArgs) -> Result<(), Failure> {
         exit_after_frames: args.exit_after_frames,
         benchmark_frames: args.benchmark_frames,
         select: args.select,
-        window_size: args.size,
+        window_size: [w as f32, h as f32],
     })
     .map_err(Failure::runtime)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::parse_size;
-
-    #[test]
-    fn window_sizes() {
-        assert_eq!(parse_size("800x600"), Ok([800.0, 600.0]));
-        assert!(parse_size("800").is_err());
-        assert!(parse_size("10x10").is_err());
-        assert!(parse_size("axb").is_err());
-    }
 }

@@ -40,6 +40,74 @@ const OLDEST_VERSION: u32 = 3;
 
 const MAGIC: &[u8; 8] = b"CAROMCKP";
 
+/// Why a checkpoint was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CheckpointError {
+    /// Not a checkpoint at all.
+    #[error("not a carom checkpoint (bad magic bytes)")]
+    NotACheckpoint,
+    /// A checkpoint of a format this carom does not read.
+    #[error(
+        "checkpoint format version {0}, but this carom reads version {FORMAT_VERSION}; \
+         resume it with the carom that wrote it"
+    )]
+    Version(u32),
+    /// A checkpoint cut short or changed after it was written.
+    #[error("damaged checkpoint: {0}")]
+    Damaged(#[from] Damage),
+}
+
+/// What is wrong with a damaged checkpoint.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Damage {
+    /// Shorter than magic, version and checksum.
+    #[error("truncated header")]
+    TruncatedHeader,
+    /// The bytes do not match their checksum.
+    #[error("checksum mismatch")]
+    Checksum,
+    /// Neither 2 nor 3 dimensions.
+    #[error("{0} dimensions")]
+    Dimensions(u32),
+    /// A particle count whose data could not be addressed.
+    #[error("particle count")]
+    ParticleCount,
+    /// Less particle data than the count needs.
+    #[error("{found} bytes of particle data, expected {expected}")]
+    ParticleData {
+        /// Bytes left in the file.
+        found: usize,
+        /// Bytes the particle count needs.
+        expected: usize,
+    },
+    /// More impulses than the file holds.
+    #[error("impulse count")]
+    ImpulseCount,
+    /// Rest times for some particles but not all.
+    #[error("{count} rest times for {particles} particles")]
+    RestTimes {
+        /// Rest times stored.
+        count: usize,
+        /// Particles stored.
+        particles: usize,
+    },
+    /// An observing flag other than 0 or 1.
+    #[error("observing flag {0}")]
+    ObservingFlag(u64),
+    /// Bytes after the last field.
+    #[error("{0} bytes left over")]
+    LeftOver(usize),
+    /// A field cut short.
+    #[error("truncated")]
+    Truncated,
+    /// A text field cut short.
+    #[error("truncated text")]
+    TruncatedText,
+    /// A text field that is not UTF-8.
+    #[error("text is not UTF-8")]
+    NotUtf8,
+}
+
 /// Everything needed to continue a run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Checkpoint {
@@ -147,29 +215,11 @@ impl Checkpoint {
     }
 
     /// Reads and checks a checkpoint.
-    pub fn read_from(bytes: &[u8]) -> Result<Self, String> {
-        if bytes.len() < 8 || &bytes[..8] != MAGIC {
-            return Err("not a carom checkpoint (bad magic bytes)".into());
-        }
-        if bytes.len() < 16 {
-            return Err("damaged checkpoint: truncated header".into());
-        }
-        let (body, tail) = bytes.split_at(bytes.len() - 8);
-        let stored = u64::from_le_bytes(tail.try_into().expect("8 bytes"));
-        let mut r = Reader { bytes: body, at: 8 };
-        let version = r.u32()?;
-        if !(OLDEST_VERSION..=FORMAT_VERSION).contains(&version) {
-            return Err(format!(
-                "checkpoint format version {version}, but this carom reads version {FORMAT_VERSION}; \
-                 resume it with the carom that wrote it"
-            ));
-        }
-        if fnv(FNV_OFFSET, body) != stored {
-            return Err("damaged checkpoint: checksum mismatch".into());
-        }
+    pub fn read_from(bytes: &[u8]) -> Result<Self, CheckpointError> {
+        let (mut r, version) = Reader::open(bytes)?;
         let dimensions = r.u32()?;
         if dimensions != 2 && dimensions != 3 {
-            return Err(format!("damaged checkpoint: {dimensions} dimensions"));
+            return Err(Damage::Dimensions(dimensions).into());
         }
         let steps_taken = r.u64()?;
         let n = r.u64()? as usize;
@@ -179,12 +229,13 @@ impl Checkpoint {
         let d = dimensions as usize;
         let need = n
             .checked_mul(4 + 2 * 8 * d + 16)
-            .ok_or("damaged checkpoint: particle count")?;
+            .ok_or(Damage::ParticleCount)?;
         if r.left() < need {
-            return Err(format!(
-                "damaged checkpoint: {} bytes of particle data, expected {need}",
-                r.left()
-            ));
+            return Err(Damage::ParticleData {
+                found: r.left(),
+                expected: need,
+            }
+            .into());
         }
         let storage_order = (0..n).map(|_| r.u32()).collect::<Result<Vec<_>, _>>()?;
         let mut floats = |count: usize| (0..count).map(|_| r.f64()).collect::<Result<Vec<_>, _>>();
@@ -192,10 +243,10 @@ impl Checkpoint {
         let velocities = floats(n * d)?;
         let radii = floats(n)?;
         let masses = floats(n)?;
-        let mut impulses = || -> Result<Vec<(u32, u32, f64)>, String> {
+        let mut impulses = || -> Result<Vec<(u32, u32, f64)>, Damage> {
             let m = r.u64()? as usize;
             if m.checked_mul(16).is_none_or(|bytes| bytes > r.left()) {
-                return Err("damaged checkpoint: impulse count".into());
+                return Err(Damage::ImpulseCount);
             }
             (0..m).map(|_| Ok((r.u32()?, r.u32()?, r.f64()?))).collect()
         };
@@ -203,9 +254,11 @@ impl Checkpoint {
         let plane_impulses = impulses()?;
         let count = r.u64()? as usize;
         if count != 0 && count != n {
-            return Err(format!(
-                "damaged checkpoint: {count} rest times for {n} particles"
-            ));
+            return Err(Damage::RestTimes {
+                count,
+                particles: n,
+            }
+            .into());
         }
         let rest = (0..count).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
         let tally = if version >= 4 {
@@ -213,7 +266,7 @@ impl Checkpoint {
                 observing: match r.u64()? {
                     0 => false,
                     1 => true,
-                    other => return Err(format!("damaged checkpoint: observing flag {other}")),
+                    other => return Err(Damage::ObservingFlag(other).into()),
                 },
                 collisions: r.u64()?,
                 virial: r.f64()?,
@@ -224,7 +277,7 @@ impl Checkpoint {
             Tally::default()
         };
         if r.left() != 0 {
-            return Err(format!("damaged checkpoint: {} bytes left over", r.left()));
+            return Err(Damage::LeftOver(r.left()).into());
         }
         Ok(Self {
             dimensions,
@@ -250,10 +303,32 @@ struct Reader<'a> {
     at: usize,
 }
 
-impl Reader<'_> {
-    fn take(&mut self, n: usize) -> Result<&[u8], String> {
+impl<'a> Reader<'a> {
+    /// Checks the magic bytes, the version and the checksum; returns a reader of the body
+    /// just after the version, and the version.
+    fn open(bytes: &'a [u8]) -> Result<(Self, u32), CheckpointError> {
+        if bytes.len() < 8 || &bytes[..8] != MAGIC {
+            return Err(CheckpointError::NotACheckpoint);
+        }
+        if bytes.len() < 16 {
+            return Err(Damage::TruncatedHeader.into());
+        }
+        let (body, tail) = bytes.split_at(bytes.len() - 8);
+        let stored = u64::from_le_bytes(tail.try_into().expect("8 bytes"));
+        let mut r = Reader { bytes: body, at: 8 };
+        let version = r.u32()?;
+        if !(OLDEST_VERSION..=FORMAT_VERSION).contains(&version) {
+            return Err(CheckpointError::Version(version));
+        }
+        if fnv(FNV_OFFSET, body) != stored {
+            return Err(Damage::Checksum.into());
+        }
+        Ok((r, version))
+    }
+
+    fn take(&mut self, n: usize) -> Result<&[u8], Damage> {
         if self.left() < n {
-            return Err("damaged checkpoint: truncated".into());
+            return Err(Damage::Truncated);
         }
         let s = &self.bytes[self.at..self.at + n];
         self.at += n;
@@ -262,28 +337,27 @@ impl Reader<'_> {
     fn left(&self) -> usize {
         self.bytes.len() - self.at
     }
-    fn u32(&mut self) -> Result<u32, String> {
+    fn u32(&mut self) -> Result<u32, Damage> {
         Ok(u32::from_le_bytes(
             self.take(4)?.try_into().expect("4 bytes"),
         ))
     }
-    fn u64(&mut self) -> Result<u64, String> {
+    fn u64(&mut self) -> Result<u64, Damage> {
         Ok(u64::from_le_bytes(
             self.take(8)?.try_into().expect("8 bytes"),
         ))
     }
-    fn f64(&mut self) -> Result<f64, String> {
+    fn f64(&mut self) -> Result<f64, Damage> {
         Ok(f64::from_le_bytes(
             self.take(8)?.try_into().expect("8 bytes"),
         ))
     }
-    fn text(&mut self) -> Result<String, String> {
+    fn text(&mut self) -> Result<String, Damage> {
         let len = self.u64()? as usize;
         if len > self.left() {
-            return Err("damaged checkpoint: truncated text".into());
+            return Err(Damage::TruncatedText);
         }
-        String::from_utf8(self.take(len)?.to_vec())
-            .map_err(|_| "damaged checkpoint: text is not UTF-8".into())
+        String::from_utf8(self.take(len)?.to_vec()).map_err(|_| Damage::NotUtf8)
     }
 }
 
@@ -359,9 +433,16 @@ mod tests {
         let mut other = bytes.clone();
         other[8..12].copy_from_slice(&99u32.to_le_bytes());
         let e = Checkpoint::read_from(&other).unwrap_err();
-        assert!(e.contains("version 99"), "{e}");
-        assert!(Checkpoint::read_from(b"id,x,y\n1,2,3\n")
-            .unwrap_err()
-            .contains("not a carom checkpoint"));
+        assert_eq!(e, CheckpointError::Version(99));
+        assert!(e.to_string().contains("version 99"), "{e}");
+        let e = Checkpoint::read_from(b"id,x,y\n1,2,3\n").unwrap_err();
+        assert_eq!(e, CheckpointError::NotACheckpoint);
+        assert!(e.to_string().contains("not a carom checkpoint"));
+        let mut cut = bytes.clone();
+        cut.truncate(12);
+        assert_eq!(
+            Checkpoint::read_from(&cut).unwrap_err().to_string(),
+            "damaged checkpoint: truncated header"
+        );
     }
 }

@@ -3,13 +3,47 @@
 //! Output formats for carom. Every file is written whole or not at all: the bytes go to a
 //! temporary file in the same folder, which is flushed, synced and then renamed over the
 //! target, so a crash or a bad input never leaves a half-written file behind.
-#![warn(missing_docs)]
 
 pub mod checkpoint;
+pub mod observables;
+pub mod trajectory;
+pub mod vtk;
 
 use carom_engine::{Particles, Vector};
 use std::io::{self, BufWriter, Write};
 use std::path::Path;
+
+/// How the writers of a long run ([`vtk::Series`]) touch their files: whole files through
+/// [`write_atomic`] and small writes into an open file as they are. The command line wraps both
+/// so that a second Ctrl-C, which exits at once, can neither leave a file half done nor see a
+/// write start after it.
+pub trait Files {
+    /// Writes `path` whole or not at all.
+    fn write_whole<W>(&self, path: &Path, write: W) -> io::Result<()>
+    where
+        W: FnOnce(&mut dyn Write) -> io::Result<()>;
+
+    /// Runs `write`, one small write into a file already open.
+    fn append<W>(&self, write: W) -> io::Result<()>
+    where
+        W: FnOnce() -> io::Result<()>,
+    {
+        write()
+    }
+}
+
+/// [`Files`] as they are: [`write_atomic`], and appends at once.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Atomic;
+
+impl Files for Atomic {
+    fn write_whole<W>(&self, path: &Path, write: W) -> io::Result<()>
+    where
+        W: FnOnce(&mut dyn Write) -> io::Result<()>,
+    {
+        write_atomic(path, write)
+    }
+}
 
 /// Writes `path` atomically: `write` fills a buffered temporary in the same folder, which
 /// replaces `path` only if everything succeeded.
@@ -114,28 +148,60 @@ pub fn save_state_csv<V: Vector>(path: &Path, particles: &Particles<V>) -> io::R
     write_atomic(path, |w| write_state_csv(particles, w))
 }
 
+/// Why a state CSV could not be read back.
+#[derive(Debug, thiserror::Error)]
+pub enum StateCsvError {
+    /// No header line.
+    #[error("empty file")]
+    Empty,
+    /// A field that is not a number.
+    #[error("row {row}: {source}")]
+    Number {
+        /// Data row, from 1.
+        row: usize,
+        /// What the number parser said.
+        source: std::num::ParseFloatError,
+    },
+    /// A row with more or fewer fields than the header.
+    #[error("row {row}: {found} fields, header has {expected}")]
+    Width {
+        /// Data row, from 1.
+        row: usize,
+        /// Its fields.
+        found: usize,
+        /// The header's.
+        expected: usize,
+    },
+    /// Not CSV at all (e.g. not UTF-8).
+    #[error(transparent)]
+    Csv(#[from] csv::Error),
+}
+
 /// Reads a state CSV back: the column names and each row's numbers (the id column included).
-pub fn read_state_csv(text: &str) -> Result<(Vec<String>, Vec<Vec<f64>>), String> {
-    let mut lines = text.lines();
-    let header: Vec<String> = lines
-        .next()
-        .ok_or("empty file")?
-        .split(',')
-        .map(str::to_string)
-        .collect();
+pub fn read_state_csv(text: &str) -> Result<(Vec<String>, Vec<Vec<f64>>), StateCsvError> {
+    let mut reader = csv::ReaderBuilder::new()
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    let header: Vec<String> = reader.headers()?.iter().map(str::to_string).collect();
+    if header.is_empty() {
+        return Err(StateCsvError::Empty);
+    }
     let mut rows = Vec::new();
-    for (n, line) in lines.enumerate() {
-        let row: Result<Vec<f64>, _> = line.split(',').map(str::parse::<f64>).collect();
-        let row = row.map_err(|e| format!("row {}: {e}", n + 1))?;
-        if row.len() != header.len() {
-            return Err(format!(
-                "row {}: {} fields, header has {}",
-                n + 1,
-                row.len(),
-                header.len()
-            ));
+    for (n, record) in reader.records().enumerate() {
+        let (record, row) = (record?, n + 1);
+        let numbers = record
+            .iter()
+            .map(str::parse::<f64>)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|source| StateCsvError::Number { row, source })?;
+        if numbers.len() != header.len() {
+            return Err(StateCsvError::Width {
+                row,
+                found: numbers.len(),
+                expected: header.len(),
+            });
         }
-        rows.push(row);
+        rows.push(numbers);
     }
     Ok((header, rows))
 }
@@ -163,6 +229,15 @@ mod tests {
         assert_eq!(rows[0][2].to_bits(), (-1.0f64 / 3.0).to_bits());
         assert_eq!(rows[0][4].to_bits(), std::f64::consts::PI.to_bits());
         assert_eq!(rows[0][5].to_bits(), (-0.0f64).to_bits());
+    }
+
+    #[test]
+    fn bad_state_files_are_refused_with_the_row() {
+        assert!(matches!(read_state_csv(""), Err(StateCsvError::Empty)));
+        let e = read_state_csv("id,x\n0,1\n1,oops\n").unwrap_err();
+        assert!(matches!(e, StateCsvError::Number { row: 2, .. }), "{e}");
+        let e = read_state_csv("id,x\n0,1,2\n").unwrap_err();
+        assert_eq!(e.to_string(), "row 1: 3 fields, header has 2");
     }
 
     #[test]

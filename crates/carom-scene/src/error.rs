@@ -1,9 +1,8 @@
 //! Scene errors: every message names the file and, where there is one, the field.
 
-use std::fmt;
-
 /// A scene that could not be read, parsed or accepted.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{origin}: {}{message}", field.as_ref().map(|f| format!("field `{f}`: ")).unwrap_or_default())]
 pub struct SceneError {
     /// The file (or other origin, such as `preset:NAME`) the scene came from.
     pub origin: String,
@@ -14,13 +13,25 @@ pub struct SceneError {
     pub message: String,
 }
 
-impl fmt::Display for SceneError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match &self.field {
-            Some(field) => write!(f, "{}: field `{}`: {}", self.origin, field, self.message),
-            None => write!(f, "{}: {}", self.origin, self.message),
-        }
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_name_the_file_and_the_field() {
+        let mut e = SceneError {
+            origin: "bad.toml".into(),
+            field: Some("particles[3].radius".into()),
+            message: "must be a finite number > 0, got -1".into(),
+        };
+        assert_eq!(
+            e.to_string(),
+            "bad.toml: field `particles[3].radius`: must be a finite number > 0, got -1"
+        );
+        e.field = None;
+        assert_eq!(
+            e.to_string(),
+            "bad.toml: must be a finite number > 0, got -1"
+        );
     }
 }
-
-impl std::error::Error for SceneError {}

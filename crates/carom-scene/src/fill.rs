@@ -1,7 +1,8 @@
 //! The particle set of a scene: explicit `[[particles]]`, then each `[[fill]]` placed without
 //! overlap (random, seeded; or on a lattice).
 
-use crate::raw::{RawArrangement, RawScene};
+use crate::raw::{RawArrangement, RawFill, RawScene};
+use crate::walls::Walled;
 use crate::{Ctx, SceneError};
 use carom_engine::{Aabb, Particles, Periodic, Vector};
 use rand::{Rng, SeedableRng};
@@ -25,10 +26,42 @@ pub(crate) fn particles<V: Vector>(
     raw: &RawScene,
     domain: Option<Aabb<V>>,
     periodic: Option<Periodic>,
+    walled: Option<Walled<V>>,
 ) -> Result<Particles<V>, SceneError> {
-    let wrap = |x: V| periodic.map_or(x, |p| p.wrap(x));
+    let total = check_total(ctx, raw)?;
+    let mut out = Particles::new();
+    out.try_reserve(total as usize).map_err(|e| {
+        ctx.err(
+            "fill",
+            format!("cannot reserve memory for {total} particles: {e}"),
+        )
+    })?;
+    let mut max_radius = explicit(ctx, raw, periodic, walled.as_ref(), &mut out)?;
+    for (i, f) in raw.fill.iter().enumerate() {
+        max_radius = max_radius.max(ctx.positive(&format!("fill[{i}].radius"), f.radius)?);
+    }
+    if raw.fill.is_empty() {
+        return Ok(out);
+    }
+    let (regions, bounds) = regions(ctx, raw, domain, walled.as_ref(), &out)?;
+    let mut placer = Placer {
+        grid: PlacementGrid::new(bounds, max_radius, total as usize),
+        seams: periodic.zip(domain),
+    };
+    for (id, &x) in out.positions().iter().enumerate() {
+        placer.grid.insert(x, id as u32);
+    }
+    for (i, f) in raw.fill.iter().enumerate() {
+        fill_one(ctx, i, f, regions[i], &mut placer, &mut out)?;
+    }
+    Ok(out)
+}
+
+/// The particles of the whole scene, refused (naming the fill's count) past what carom can
+/// index or this machine's memory can hold.
+fn check_total(ctx: &Ctx, raw: &RawScene) -> Result<u64, SceneError> {
     let mut total = raw.particles.len() as u64;
-    let memory = physical_memory_bytes();
+    let memory = crate::machine::total_memory_bytes();
     for (i, f) in raw.fill.iter().enumerate() {
         let field = format!("fill[{i}].count");
         if f.count < 1 {
@@ -58,37 +91,48 @@ pub(crate) fn particles<V: Vector>(
             }
         }
     }
+    Ok(total)
+}
 
-    let mut out = Particles::new();
-    out.try_reserve(total as usize).map_err(|e| {
-        ctx.err(
-            "fill",
-            format!("cannot reserve memory for {total} particles: {e}"),
-        )
-    })?;
-
+/// The explicit `[[particles]]`, checked and pushed into `out` (wrapped on periodic axes);
+/// returns their largest radius.
+fn explicit<V: Vector>(
+    ctx: &Ctx,
+    raw: &RawScene,
+    periodic: Option<Periodic>,
+    walled: Option<&Walled<V>>,
+    out: &mut Particles<V>,
+) -> Result<f64, SceneError> {
     let mut max_radius: f64 = 0.0;
     for (i, p) in raw.particles.iter().enumerate() {
         let f = |k: &str| format!("particles[{i}].{k}");
-        let position = wrap(ctx.vector::<V>(&f("position"), &p.position)?);
+        let position = ctx.vector::<V>(&f("position"), &p.position)?;
+        let position = periodic.map_or(position, |w| w.wrap(position));
         let velocity = match &p.velocity {
             Some(v) => ctx.vector::<V>(&f("velocity"), v)?,
             None => V::ZERO,
         };
         let radius = ctx.positive(&f("radius"), p.radius)?;
         let mass = ctx.positive(&f("mass"), p.mass.unwrap_or(1.0))?;
+        if let Some(walls) = walled {
+            walls.check_particle(ctx, i, position, radius)?;
+        }
         max_radius = max_radius.max(radius);
         out.push(position, velocity, radius, mass)
             .map_err(|e| ctx.err(format!("particles[{i}]"), e.to_string()))?;
     }
-    for (i, f) in raw.fill.iter().enumerate() {
-        max_radius = max_radius.max(ctx.positive(&format!("fill[{i}].radius"), f.radius)?);
-    }
-    if raw.fill.is_empty() {
-        return Ok(out);
-    }
+    Ok(max_radius)
+}
 
-    // The placement grid covers every fill region and every explicit particle.
+/// Each fill's region (its `min` and `max`, else the domain), checked against the walls, and
+/// the box around them all and the explicit particles (what the placement grid covers).
+fn regions<V: Vector>(
+    ctx: &Ctx,
+    raw: &RawScene,
+    domain: Option<Aabb<V>>,
+    walled: Option<&Walled<V>>,
+    out: &Particles<V>,
+) -> Result<(Vec<Aabb<V>>, Aabb<V>), SceneError> {
     let mut lo = V::from_slice(&[f64::INFINITY; 3]);
     let mut hi = V::from_slice(&[f64::NEG_INFINITY; 3]);
     for &x in out.positions() {
@@ -108,155 +152,231 @@ pub(crate) fn particles<V: Vector>(
             }
             _ => return Err(ctx.err(format!("fill[{i}]"), "give both min and max, or neither")),
         };
+        if let Some(walls) = walled {
+            walls.check_region(ctx, i, &region)?;
+        }
         lo = lo.min_components(region.min);
         hi = hi.max_components(region.max);
         regions.push(region);
     }
-    let bounds = Aabb { min: lo, max: hi };
-    let mut placed = PlacementGrid::new(bounds, max_radius, total as usize);
-    let seams = periodic.zip(domain);
-    let overlaps = |placed: &PlacementGrid, x: V, radius: f64, out: &Particles<V>| match seams {
-        None => placed.overlaps(x, radius, out.positions(), out.radii()),
-        Some((p, d)) => placed.overlaps_across(&p, &d, x, radius, out.positions(), out.radii()),
-    };
-    for (id, &x) in out.positions().iter().enumerate() {
-        placed.insert(x, id as u32);
+    Ok((regions, Aabb { min: lo, max: hi }))
+}
+
+/// Where particles have been placed so far, and the seams to look across (periodic axes of
+/// the domain).
+struct Placer<V> {
+    grid: PlacementGrid,
+    seams: Option<(Periodic, Aabb<V>)>,
+}
+
+impl<V: Vector> Placer<V> {
+    /// `x` wrapped into the domain on its periodic axes.
+    fn wrap(&self, x: V) -> V {
+        self.seams.map_or(x, |(p, _)| p.wrap(x))
     }
 
-    for (i, f) in raw.fill.iter().enumerate() {
-        let field = |k: &str| format!("fill[{i}].{k}");
-        let radius = f.radius;
-        let mass = ctx.positive(&field("mass"), f.mass.unwrap_or(1.0))?;
-        let speed = ctx.non_negative(&field("speed"), f.speed.unwrap_or(0.0))?;
-        let base_velocity = match &f.velocity {
-            Some(v) => ctx.vector::<V>(&field("velocity"), v)?,
-            None => V::ZERO,
-        };
-        let seed = match f.seed {
-            None => 0,
-            Some(s) if s >= 0 => s as u64,
-            Some(s) => return Err(ctx.err(field("seed"), format!("must be >= 0, got {s}"))),
-        };
-        let region = regions[i];
-        let extent = region.extent();
-        if (0..V::DIM).any(|a| extent.get(a) <= 2.0 * radius) {
-            return Err(ctx.err(
-                field("radius"),
-                format!("a particle of radius {radius} does not fit in the fill region"),
-            ));
+    /// True when a particle of `radius` at `x` would overlap one already placed in `out`.
+    fn overlaps(&self, x: V, radius: f64, out: &Particles<V>) -> bool {
+        match &self.seams {
+            None => self.grid.overlaps(x, radius, out.positions(), out.radii()),
+            Some((p, d)) => {
+                self.grid
+                    .overlaps_across(p, d, x, radius, out.positions(), out.radii())
+            }
         }
-        let count = f.count as u64;
-        let region_volume: f64 = (0..V::DIM).map(|a| extent.get(a)).product();
-        let particle_volume = if V::DIM == 2 {
-            std::f64::consts::PI * radius * radius
-        } else {
-            4.0 / 3.0 * std::f64::consts::PI * radius.powi(3)
-        };
-        let fraction = count as f64 * particle_volume / region_volume;
-        if fraction > MAX_PACKING[V::DIM - 2] {
+    }
+
+    /// Pushes a particle into `out` and the grid.
+    fn place(
+        &mut self,
+        ctx: &Ctx,
+        i: usize,
+        out: &mut Particles<V>,
+        (x, v, radius, mass): (V, V, f64, f64),
+    ) -> Result<(), SceneError> {
+        let id = out
+            .push(x, v, radius, mass)
+            .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
+        self.grid.insert(x, id as u32);
+        Ok(())
+    }
+}
+
+/// One fill's settings, checked.
+struct Fill<V> {
+    count: u64,
+    radius: f64,
+    mass: f64,
+    speed: f64,
+    base_velocity: V,
+    region: Aabb<V>,
+}
+
+impl<V: Vector> Fill<V> {
+    /// A random velocity: the base velocity plus a random direction times a speed uniform in
+    /// [0, speed].
+    fn velocity(&self, rng: &mut Pcg64) -> V {
+        self.base_velocity + random_direction::<V>(rng) * (self.speed * rng.random::<f64>())
+    }
+}
+
+/// Places the particles of `[[fill]]` `i` (over `region`) into `out`.
+fn fill_one<V: Vector>(
+    ctx: &Ctx,
+    i: usize,
+    f: &RawFill,
+    region: Aabb<V>,
+    placer: &mut Placer<V>,
+    out: &mut Particles<V>,
+) -> Result<(), SceneError> {
+    let field = |k: &str| format!("fill[{i}].{k}");
+    let radius = f.radius;
+    let mass = ctx.positive(&field("mass"), f.mass.unwrap_or(1.0))?;
+    let speed = ctx.non_negative(&field("speed"), f.speed.unwrap_or(0.0))?;
+    let base_velocity = match &f.velocity {
+        Some(v) => ctx.vector::<V>(&field("velocity"), v)?,
+        None => V::ZERO,
+    };
+    let seed = match f.seed {
+        None => 0,
+        Some(s) if s >= 0 => s as u64,
+        Some(s) => return Err(ctx.err(field("seed"), format!("must be >= 0, got {s}"))),
+    };
+    let extent = region.extent();
+    if (0..V::DIM).any(|a| extent.get(a) <= 2.0 * radius) {
+        return Err(ctx.err(
+            field("radius"),
+            format!("a particle of radius {radius} does not fit in the fill region"),
+        ));
+    }
+    let count = f.count as u64;
+    let region_volume: f64 = (0..V::DIM).map(|a| extent.get(a)).product();
+    let particle_volume = if V::DIM == 2 {
+        std::f64::consts::PI * radius * radius
+    } else {
+        4.0 / 3.0 * std::f64::consts::PI * radius.powi(3)
+    };
+    let fraction = count as f64 * particle_volume / region_volume;
+    if fraction > MAX_PACKING[V::DIM - 2] {
+        return Err(ctx.err(
+            field("count"),
+            format!(
+                "{count} particles of radius {radius} would fill {:.0}% of the region, more than the densest packing ({:.0}%)",
+                fraction * 100.0,
+                MAX_PACKING[V::DIM - 2] * 100.0
+            ),
+        ));
+    }
+    let fill = Fill {
+        count,
+        radius,
+        mass,
+        speed,
+        base_velocity,
+        region,
+    };
+    let mut rng = Pcg64::seed_from_u64(seed);
+    match f.arrangement {
+        RawArrangement::Random => place_random(ctx, i, &fill, &mut rng, placer, out),
+        RawArrangement::Lattice => place_lattice(ctx, i, &fill, &mut rng, placer, out),
+    }
+}
+
+/// Random positions over the region (less a radius), each kept if it overlaps nothing.
+fn place_random<V: Vector>(
+    ctx: &Ctx,
+    i: usize,
+    fill: &Fill<V>,
+    rng: &mut Pcg64,
+    placer: &mut Placer<V>,
+    out: &mut Particles<V>,
+) -> Result<(), SceneError> {
+    let (count, radius) = (fill.count, fill.radius);
+    let lo = fill.region.min + V::from_slice(&[radius; 3]);
+    let span = fill.region.extent() - V::from_slice(&[2.0 * radius; 3]);
+    let start = out.len();
+    let budget = ATTEMPTS_PER_PARTICLE * count + 10_000;
+    let mut attempts = 0u64;
+    while ((out.len() - start) as u64) < count {
+        attempts += 1;
+        if attempts > budget {
             return Err(ctx.err(
-                field("count"),
+                format!("fill[{i}].count"),
                 format!(
-                    "{count} particles of radius {radius} would fill {:.0}% of the region, more than the densest packing ({:.0}%)",
-                    fraction * 100.0,
-                    MAX_PACKING[V::DIM - 2] * 100.0
+                    "placed only {} of {count} particles without overlap after {budget} random tries; \
+                     enlarge the region, lower count or radius, or use arrangement = \"lattice\"",
+                    out.len() - start
                 ),
             ));
         }
-
-        let mut rng = Pcg64::seed_from_u64(seed);
-        let lo = region.min + V::from_slice(&[radius; 3]);
-        let span = extent - V::from_slice(&[2.0 * radius; 3]);
-        let random_velocity = |rng: &mut Pcg64| {
-            base_velocity + random_direction::<V>(rng) * (speed * rng.random::<f64>())
-        };
-        let start = out.len();
-        match f.arrangement {
-            RawArrangement::Random => {
-                let budget = ATTEMPTS_PER_PARTICLE * count + 10_000;
-                let mut attempts = 0u64;
-                while ((out.len() - start) as u64) < count {
-                    attempts += 1;
-                    if attempts > budget {
-                        return Err(ctx.err(
-                            field("count"),
-                            format!(
-                                "placed only {} of {count} particles without overlap after {budget} random tries; \
-                                 enlarge the region, lower count or radius, or use arrangement = \"lattice\"",
-                                out.len() - start
-                            ),
-                        ));
-                    }
-                    let mut c = [0.0; 3];
-                    for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
-                        *slot = lo.get(a) + span.get(a) * rng.random::<f64>();
-                    }
-                    let x = wrap(V::from_slice(&c));
-                    if overlaps(&placed, x, radius, &out) {
-                        continue;
-                    }
-                    let v = random_velocity(&mut rng);
-                    let id = out
-                        .push(x, v, radius, mass)
-                        .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
-                    placed.insert(x, id as u32);
-                }
-            }
-            RawArrangement::Lattice => {
-                // A hair more than a diameter apart, so neighbours do not count as touching.
-                let spacing = 2.0 * radius * (1.0 + 1e-9);
-                let mut per_axis = [1usize; 3];
-                for (a, n) in per_axis.iter_mut().enumerate().take(V::DIM) {
-                    *n = (span.get(a) / spacing).floor() as usize + 1;
-                }
-                let mut site = [0usize; 3];
-                'sites: while ((out.len() - start) as u64) < count {
-                    if site[V::DIM - 1] >= per_axis[V::DIM - 1] {
-                        return Err(ctx.err(
-                            field("count"),
-                            format!(
-                                "the lattice holds only {} of {count} particles in the region",
-                                out.len() - start
-                            ),
-                        ));
-                    }
-                    let mut c = [0.0; 3];
-                    for a in 0..V::DIM {
-                        c[a] = lo.get(a) + spacing * site[a] as f64;
-                    }
-                    // next site, x fastest
-                    for a in 0..V::DIM {
-                        site[a] += 1;
-                        if site[a] < per_axis[a] || a == V::DIM - 1 {
-                            break;
-                        }
-                        site[a] = 0;
-                    }
-                    let x = wrap(V::from_slice(&c));
-                    if overlaps(&placed, x, radius, &out) {
-                        continue 'sites;
-                    }
-                    let v = random_velocity(&mut rng);
-                    let id = out
-                        .push(x, v, radius, mass)
-                        .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
-                    placed.insert(x, id as u32);
-                }
-            }
+        let mut c = [0.0; 3];
+        for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
+            *slot = lo.get(a) + span.get(a) * rng.random::<f64>();
         }
+        let x = placer.wrap(V::from_slice(&c));
+        if placer.overlaps(x, radius, out) {
+            continue;
+        }
+        let v = fill.velocity(rng);
+        placer.place(ctx, i, out, (x, v, radius, fill.mass))?;
     }
-    Ok(out)
+    Ok(())
+}
+
+/// Lattice sites from the region's min corner (less a radius), x fastest, each kept if it
+/// overlaps nothing.
+fn place_lattice<V: Vector>(
+    ctx: &Ctx,
+    i: usize,
+    fill: &Fill<V>,
+    rng: &mut Pcg64,
+    placer: &mut Placer<V>,
+    out: &mut Particles<V>,
+) -> Result<(), SceneError> {
+    let (count, radius) = (fill.count, fill.radius);
+    let lo = fill.region.min + V::from_slice(&[radius; 3]);
+    let span = fill.region.extent() - V::from_slice(&[2.0 * radius; 3]);
+    let start = out.len();
+    // A hair more than a diameter apart, so neighbours do not count as touching.
+    let spacing = 2.0 * radius * (1.0 + 1e-9);
+    let mut per_axis = [1usize; 3];
+    for (a, n) in per_axis.iter_mut().enumerate().take(V::DIM) {
+        *n = (span.get(a) / spacing).floor() as usize + 1;
+    }
+    let mut site = [0usize; 3];
+    while ((out.len() - start) as u64) < count {
+        if site[V::DIM - 1] >= per_axis[V::DIM - 1] {
+            return Err(ctx.err(
+                format!("fill[{i}].count"),
+                format!(
+                    "the lattice holds only {} of {count} particles in the region",
+                    out.len() - start
+                ),
+            ));
+        }
+        let mut c = [0.0; 3];
+        for a in 0..V::DIM {
+            c[a] = lo.get(a) + spacing * site[a] as f64;
+        }
+        // next site, x fastest
+        for a in 0..V::DIM {
+            site[a] += 1;
+            if site[a] < per_axis[a] || a == V::DIM - 1 {
+                break;
+            }
+            site[a] = 0;
+        }
+        let x = placer.wrap(V::from_slice(&c));
+        if placer.overlaps(x, radius, out) {
+            continue;
+        }
+        let v = fill.velocity(rng);
+        placer.place(ctx, i, out, (x, v, radius, fill.mass))?;
+    }
+    Ok(())
 }
 
 const GIB: f64 = (1u64 << 30) as f64;
-
-/// Total memory from `/proc/meminfo`, when the system says.
-fn physical_memory_bytes() -> Option<u64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
 
 /// A uniformly random unit vector.
 fn random_direction<V: Vector>(rng: &mut Pcg64) -> V {

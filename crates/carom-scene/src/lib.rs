@@ -4,12 +4,13 @@
 //! set (including `[[fill]]` blocks), returning an [`AnyScene`] in 2D or 3D. Every error is a
 //! [`SceneError`] that names the file and the field. The format is documented in the
 //! repository's `docs/scene-format.md`.
-#![warn(missing_docs)]
 
 mod error;
 mod fill;
+pub mod machine;
 mod presets;
 mod raw;
+mod walls;
 
 pub use error::SceneError;
 pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
@@ -29,6 +30,10 @@ use std::path::Path;
 
 /// Steps run when a scene gives no `steps`.
 pub const DEFAULT_STEPS: u64 = 1000;
+
+/// The most steps a run may ask for (the scene's `steps`, `--steps`): 10^12, decades at a
+/// microsecond a step. More is a typo (an extra digit or two), refused before any work.
+pub const MAX_STEPS: u64 = 1_000_000_000_000;
 
 /// A checked scene in `V`'s dimension, ready to become a [`World`].
 #[derive(Debug, Clone)]
@@ -292,8 +297,8 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     let dt = ctx.positive("dt", raw.dt)?;
     let steps = match raw.steps {
         None => DEFAULT_STEPS,
-        Some(s) if s >= 0 => s as u64,
-        Some(s) => return Err(ctx.err("steps", format!("must be >= 0, got {s}"))),
+        Some(s) if (0..=MAX_STEPS as i64).contains(&s) => s as u64,
+        Some(s) => return Err(ctx.err("steps", format!("must be in 0..={MAX_STEPS}, got {s}"))),
     };
     let gravity = match &raw.gravity {
         Some(g) => ctx.vector::<V>("gravity", g)?,
@@ -319,10 +324,65 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     }
     let wraps = periodic.iter().any(|&a| a);
 
+    let (broad_phase, grid_cells) = broad_phase::<V>(ctx, &raw, walls.is_some(), wraps)?;
+    let SolverSettings {
+        velocity_iterations,
+        position_iterations,
+        substeps,
+        resting_speed,
+        sleep,
+        sleep_speed,
+        sleep_time,
+    } = solver(ctx, &raw)?;
+    let planes = planes::<V>(ctx, &raw, restitution)?;
+
+    let wrap = domain.and_then(|d| Periodic::new(&d, &periodic));
+    let walled = crate::walls::Walled::new(domain, walls.is_some(), periodic);
+    let particles = fill::particles::<V>(ctx, &raw, domain, wrap, walled)?;
+    let fills: Vec<usize> = raw.fill.iter().map(|f| f.count as usize).collect();
+    crate::walls::check_planes(ctx, &planes, &particles, raw.particles.len(), &fills)?;
+    if let (Some(d), true) = (domain, wraps) {
+        check_periods(ctx, &d, &periodic, particles.max_radius())?;
+    }
+
+    Ok(Scene {
+        name: raw.name,
+        description: raw.description,
+        steps,
+        config: WorldConfig {
+            dt,
+            gravity,
+            restitution,
+            velocity_iterations,
+            position_iterations,
+            substeps,
+            domain,
+            periodic,
+            broad_phase,
+            grid_cells,
+            resting_speed,
+            sleep,
+            sleep_speed,
+            sleep_time,
+        },
+        walls,
+        planes,
+        particles,
+    })
+}
+
+/// `[broadphase]`: the kind (by default the grid when `walls` close the domain or it `wraps`,
+/// else the unbounded hash) and the grid's cells, if given.
+fn broad_phase<V: Vector>(
+    ctx: &Ctx,
+    raw: &RawScene,
+    walls: bool,
+    wraps: bool,
+) -> Result<(BroadPhaseKind, Option<Vec<usize>>), SceneError> {
     // Default: the lecture's grid when walls close the domain (or it wraps around), otherwise
     // the unbounded hash (particles may roam anywhere, and a grid would clamp them into its
     // border cells).
-    let mut broad_phase = if walls.is_some() || wraps {
+    let mut broad_phase = if walls || wraps {
         BroadPhaseKind::Grid
     } else {
         BroadPhaseKind::Hash
@@ -376,6 +436,22 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         }
     }
 
+    Ok((broad_phase, grid_cells))
+}
+
+/// `[solver]`, checked, with the defaults filled in.
+struct SolverSettings {
+    velocity_iterations: u32,
+    position_iterations: u32,
+    substeps: u32,
+    resting_speed: Option<f64>,
+    sleep: bool,
+    sleep_speed: Option<f64>,
+    sleep_time: f64,
+}
+
+/// `[solver]`, checked.
+fn solver(ctx: &Ctx, raw: &RawScene) -> Result<SolverSettings, SceneError> {
     let (mut velocity_iterations, mut position_iterations, mut substeps) = (
         DEFAULT_VELOCITY_ITERATIONS,
         DEFAULT_POSITION_ITERATIONS,
@@ -424,6 +500,23 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         None => carom_engine::sleep::DEFAULT_SLEEP_TIME,
     };
 
+    Ok(SolverSettings {
+        velocity_iterations,
+        position_iterations,
+        substeps,
+        resting_speed,
+        sleep,
+        sleep_speed,
+        sleep_time,
+    })
+}
+
+/// `[[planes]]`, checked (`restitution`: the scene's, for planes without their own).
+fn planes<V: Vector>(
+    ctx: &Ctx,
+    raw: &RawScene,
+    restitution: f64,
+) -> Result<Vec<Plane<V>>, SceneError> {
     let mut planes = Vec::with_capacity(raw.planes.len());
     for (i, p) in raw.planes.iter().enumerate() {
         let f = |k: &str| format!("planes[{i}].{k}");
@@ -440,47 +533,29 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         planes.push(plane);
     }
 
-    let wrap = domain.and_then(|d| Periodic::new(&d, &periodic));
-    let particles = fill::particles::<V>(ctx, &raw, domain, wrap)?;
-    if let (Some(d), true) = (domain, wraps) {
-        let shortest = shortest_period(particles.max_radius());
-        for a in (0..V::DIM).filter(|&a| periodic[a]) {
-            let length = d.max.get(a) - d.min.get(a);
-            if length <= shortest {
-                return Err(ctx.err(
-                    "domain.periodic",
-                    format!(
-                        "axis {a} is {length} long, but a periodic axis must be longer than \
-                         {shortest} (4 (2 + slop) times the largest radius, so that only one \
-                         image of a particle can touch another)"
-                    ),
-                ));
-            }
+    Ok(planes)
+}
+
+/// Every periodic axis of `domain` longer than [`shortest_period`] for `max_radius`.
+fn check_periods<V: Vector>(
+    ctx: &Ctx,
+    domain: &Aabb<V>,
+    periodic: &[bool; 3],
+    max_radius: f64,
+) -> Result<(), SceneError> {
+    let shortest = shortest_period(max_radius);
+    for a in (0..V::DIM).filter(|&a| periodic[a]) {
+        let length = domain.max.get(a) - domain.min.get(a);
+        if length <= shortest {
+            return Err(ctx.err(
+                "domain.periodic",
+                format!(
+                    "axis {a} is {length} long, but a periodic axis must be longer than \
+                     {shortest} (4 (2 + slop) times the largest radius, so that only one \
+                     image of a particle can touch another)"
+                ),
+            ));
         }
     }
-
-    Ok(Scene {
-        name: raw.name,
-        description: raw.description,
-        steps,
-        config: WorldConfig {
-            dt,
-            gravity,
-            restitution,
-            velocity_iterations,
-            position_iterations,
-            substeps,
-            domain,
-            periodic,
-            broad_phase,
-            grid_cells,
-            resting_speed,
-            sleep,
-            sleep_speed,
-            sleep_time,
-        },
-        walls,
-        planes,
-        particles,
-    })
+    Ok(())
 }

@@ -1,6 +1,7 @@
 //! A run split over ranks, as the step loop sees it.
 
-use crate::session::{stop_requested, Stepper};
+use crate::driver::interrupt::stop_requested;
+use crate::driver::step::Stepper;
 use carom_engine::cluster::{Subdomain, TrafficKind, Transport};
 use carom_engine::{StepStats, Vector, World};
 

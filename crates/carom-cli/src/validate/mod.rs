@@ -13,7 +13,7 @@
 mod cases;
 mod gas;
 
-use crate::run::Failure;
+use crate::failure::Failure;
 use cases::{Case, Outcome, Size};
 use std::path::PathBuf;
 
@@ -31,14 +31,15 @@ pub struct ValidateArgs {
     /// frequency of a 2D gas at packing fraction 0.3, four time steps).
     #[arg(long)]
     pub dt_table: bool,
-    /// Worker threads (default: RAYON_NUM_THREADS, else one per core).
-    #[arg(long)]
+    /// Worker threads, 1 to 8 per core (at least 64 on any machine; default:
+    /// RAYON_NUM_THREADS, else one per core).
+    #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
 }
 
 /// `carom validate`: exit status 0 when every case is within its tolerance, 1 otherwise.
 pub fn validate(args: &ValidateArgs) -> Result<(), Failure> {
-    crate::run::set_threads(args.threads)?;
+    crate::input::set_threads(args.threads)?;
     if let Some(dir) = &args.plots {
         if !dir.is_dir() {
             return Err(Failure::input(format!(

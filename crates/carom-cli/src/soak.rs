@@ -3,7 +3,9 @@
 //! escaped the walls, the energy, and the peak memory. Not part of `cargo test`; see the
 //! README ("Soak") and scripts/soak.sh.
 
-use crate::run::Failure;
+use crate::driver::interrupt::{install_interrupt_handler, stop_requested};
+use crate::failure::Failure;
+use crate::input::{check_steps, scene_text, set_threads};
 use carom_engine::{Vector, World};
 use carom_scene::AnyScene;
 use std::path::PathBuf;
@@ -14,49 +16,35 @@ use std::time::Instant;
 pub struct SoakArgs {
     /// Scene file (default: the built-in lecture_5000_grid100, the lecture's 5000 particles).
     pub scene: Option<PathBuf>,
-    /// Steps to run.
-    #[arg(long, default_value_t = 1_000_000)]
+    /// Steps to run, at most 10^12.
+    #[arg(long, default_value_t = 1_000_000, allow_negative_numbers = true)]
     pub steps: u64,
     /// Steps between report lines.
-    #[arg(long, default_value_t = 10_000)]
+    #[arg(long, default_value_t = 10_000, allow_negative_numbers = true)]
     pub every: u64,
-    /// Worker threads.
-    #[arg(long)]
+    /// Worker threads, 1 to 8 per core (at least 64 on any machine).
+    #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
 }
 
 /// `carom soak`.
 pub fn soak(args: &SoakArgs) -> Result<(), Failure> {
-    crate::run::set_threads(args.threads)?;
+    set_threads(args.threads)?;
+    check_steps("--steps", Some(args.steps))?;
     if args.every == 0 {
         return Err(Failure::input("--every: must be at least 1"));
     }
-    let (text, origin) = match &args.scene {
-        Some(p) => (
-            std::fs::read_to_string(p)
-                .map_err(|e| Failure::input(format!("{}: {e}", p.display())))?,
-            p.display().to_string(),
-        ),
-        None => (
-            carom_scene::preset("lecture_5000_grid100")
-                .ok_or_else(|| Failure::input("built-in scene lecture_5000_grid100 missing"))?
-                .to_string(),
-            "preset:lecture_5000_grid100".to_string(),
-        ),
-    };
-    let scene = carom_scene::parse(&text, &origin).map_err(|e| Failure::input(e.to_string()))?;
+    let (text, origin) = scene_text(args.scene.as_deref(), Some("lecture_5000_grid100"))?;
+    let scene = carom_scene::parse(&text, &origin)?;
     match scene {
         AnyScene::Two(s) => soak_world(s.into_world(), &origin, args),
         AnyScene::Three(s) => soak_world(s.into_world(), &origin, args),
     }
 }
 
-/// Peak resident memory (VmHWM) in MiB, where /proc has it.
-pub fn peak_rss_mib() -> Option<f64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib / 1024.0)
+/// Peak resident memory in MiB, where the system says.
+fn peak_rss_mib() -> Option<f64> {
+    carom_scene::machine::peak_rss_bytes().map(|b| b as f64 / (1024.0 * 1024.0))
 }
 
 /// Non-finite particles and particles whose centre left the domain (0 when it has no walls).
@@ -82,7 +70,7 @@ fn soak_world<V: Vector>(
     args: &SoakArgs,
 ) -> Result<(), Failure> {
     let mut world = world.map_err(|e| Failure::input(format!("{origin}: {e}")))?;
-    crate::session::install_interrupt_handler();
+    install_interrupt_handler();
     println!(
         "# soak {origin}: {} particles, {}D, {} steps, {} threads",
         world.len(),
@@ -121,7 +109,7 @@ fn soak_world<V: Vector>(
             if world.steps_taken() % args.every == 0 || world.steps_taken() == args.steps {
                 line(&world);
             }
-            if crate::session::stop_requested() {
+            if stop_requested() {
                 interrupted = true;
                 return;
             }
@@ -143,10 +131,10 @@ fn soak_world<V: Vector>(
         ));
     }
     if interrupted {
-        return Err(Failure {
-            status: crate::session::INTERRUPTED,
-            message: format!("interrupted after step {}", world.steps_taken()),
-        });
+        return Err(Failure::Interrupted(format!(
+            "interrupted after step {}",
+            world.steps_taken()
+        )));
     }
     Ok(())
 }

@@ -1,0 +1,161 @@
+//! The summary `carom run` and `carom resume` print at the end of a run.
+
+use super::step::Driven;
+use super::{Before, Labels};
+use carom_engine::{Vector, World};
+
+/// Everything the summary reports: how the run is named, the world at the end, the conserved
+/// quantities at the start, and what the step loop saw.
+pub struct Summary<'a, V: Vector> {
+    /// Name, origin and final CSV of the run.
+    pub run: &'a Labels<'a>,
+    /// The world at the end.
+    pub world: &'a World<V>,
+    /// Energies and momentum at the start.
+    pub before: &'a Before<V>,
+    /// What the loop saw.
+    pub driven: &'a Driven,
+}
+
+impl<V: Vector> Summary<'_, V> {
+    /// Prints the summary to stdout.
+    pub fn print(&self) {
+        self.print_setup();
+        if self.driven.steps_run > 0 {
+            self.print_work();
+        }
+        self.print_conservation();
+        if let Some(out) = self.run.out {
+            println!("output      {}", out.display());
+        }
+    }
+
+    /// Scene, particles, broad phase, threads, steps.
+    fn print_setup(&self) {
+        let (world, run) = (self.world, self.run);
+        let name = run.name.unwrap_or("(unnamed)");
+        println!("scene       {name} [{}]", run.origin);
+        let broad = match world.grid_cells() {
+            Some(c) => {
+                let cells: Vec<String> = c[..V::DIM].iter().map(|n| n.to_string()).collect();
+                format!("grid {}", cells.join("x"))
+            }
+            None => world.broad_phase_name().to_string(),
+        };
+        println!(
+            "particles   {} ({}D), broad phase {broad}, {} threads",
+            world.particles().len(),
+            V::DIM,
+            rayon::current_num_threads()
+        );
+        println!(
+            "steps       {} x dt {} = {} time units simulated",
+            self.driven.steps_run,
+            world.config().dt,
+            world.time()
+        );
+    }
+
+    /// Time, contacts, collisions, the solver's cap, sleep and overlap (for a run of at least
+    /// one step).
+    fn print_work(&self) {
+        let (world, d) = (self.world, self.driven);
+        let steps = d.steps_run;
+        println!(
+            "time        {:.3} s wall, {:.4} ms per step",
+            d.seconds,
+            d.seconds * 1e3 / steps as f64
+        );
+        println!(
+            "contacts    {:.2} per step on average, {} at most{}",
+            d.contacts_total as f64 / steps as f64,
+            d.contacts_max,
+            match d.last_capped {
+                Some(last) if d.capped_steps > 0 => format!(
+                    ", iteration cap reached in {} steps (the last at step {last})",
+                    d.capped_steps
+                ),
+                _ => String::new(),
+            }
+        );
+        println!(
+            "collisions  {} particle-particle impacts, {:.4} per particle per time unit",
+            d.collisions_total,
+            d.collisions_total as f64
+                / (world.len().max(1) as f64 * steps as f64 * world.config().dt)
+        );
+        if d.capped_steps > 0 {
+            println!(
+                "solver      the velocity sweeps stopped at their cap ({}) in {} of \
+                 {steps} steps: contacts still approaching then were met again the next step \
+                 (momentum stays exact, the position phase bounds the overlap; a dense gas at \
+                 low k collapses inelastically, a deep pile needs more sweeps: [solver] \
+                 velocity_iterations)",
+                world.config().velocity_iterations,
+                d.capped_steps
+            );
+        }
+        if world.config().sleep_settings(world.planes()).is_some() {
+            let n = world.len();
+            match d.asleep_since {
+                Some(since) if d.asleep_last == n => {
+                    println!("sleep       all {n} particles asleep since step {since}")
+                }
+                _ => println!(
+                    "sleep       {} of {n} particles asleep at the end",
+                    d.asleep_last
+                ),
+            }
+        }
+        println!(
+            "overlap     {:.3}% of the smaller radius at the end, {:.3}% at most",
+            d.last_overlap * 100.0,
+            d.worst_overlap * 100.0
+        );
+    }
+
+    /// Energy and momentum, start against end.
+    fn print_conservation(&self) {
+        let (world, before) = (self.world, self.before);
+        let (ke0, pe0) = (before.kinetic, before.potential);
+        let (ke1, pe1) = (world.kinetic_energy(), world.potential_energy());
+        println!(
+            "energy      kinetic {} -> {} ({})",
+            fmt(ke0),
+            fmt(ke1),
+            change(ke0, ke1)
+        );
+        // Potential energy has an arbitrary zero (the origin), so only its change means anything.
+        println!(
+            "            kinetic + potential changed by {:+.6e} ({:+.3}% of the initial kinetic)",
+            (ke1 + pe1) - (ke0 + pe0),
+            if ke0 > 0.0 {
+                ((ke1 + pe1) - (ke0 + pe0)) / ke0 * 100.0
+            } else {
+                0.0
+            }
+        );
+        println!(
+            "momentum    {} -> {}",
+            vec_fmt(before.momentum),
+            vec_fmt(world.momentum())
+        );
+    }
+}
+
+fn fmt(x: f64) -> String {
+    format!("{x:.6e}")
+}
+
+fn change(a: f64, b: f64) -> String {
+    if a == 0.0 {
+        format!("{:+.3e}", b - a)
+    } else {
+        format!("{:+.3}%", (b - a) / a.abs() * 100.0)
+    }
+}
+
+fn vec_fmt<V: Vector>(v: V) -> String {
+    let parts: Vec<String> = (0..V::DIM).map(|a| format!("{:.6e}", v.get(a))).collect();
+    format!("({})", parts.join(", "))
+}

@@ -1,0 +1,297 @@
+//! The checks every subcommand shares, made before any work: the scene a subcommand names, the
+//! thread and rank counts, step counts, grid cells, window and image sizes, output paths. Each
+//! refusal is a [`Failure::Input`] (exit status 2) that names the flag.
+
+use crate::failure::Failure;
+use carom_engine::{BroadPhaseKind, Vector};
+use carom_scene::{AnyScene, Scene, MAX_STEPS};
+use std::path::{Path, PathBuf};
+
+/// The TOML text of a scene file, or of a preset (the default one when neither is given), and
+/// where it came from. Shared by every subcommand that takes `[SCENE] [--preset NAME]`.
+pub fn scene_text(scene: Option<&Path>, preset: Option<&str>) -> Result<(String, String), Failure> {
+    match scene {
+        Some(path) => {
+            let origin = path.display().to_string();
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| Failure::input(format!("{origin}: cannot read scene file: {e}")))?;
+            Ok((text, origin))
+        }
+        None => {
+            let name = preset.unwrap_or(carom_scene::DEFAULT_PRESET);
+            let text = carom_scene::preset(name).ok_or_else(|| {
+                let names: Vec<_> = carom_scene::preset_names().collect();
+                Failure::input(format!(
+                    "--preset: no built-in scene `{name}`; there are: {}",
+                    names.join(", ")
+                ))
+            })?;
+            Ok((text.to_string(), format!("preset:{name}")))
+        }
+    }
+}
+
+/// The scene a subcommand names, parsed, with its origin and its TOML text (kept in
+/// checkpoints).
+pub fn load_scene(
+    scene: Option<&Path>,
+    preset: Option<&str>,
+) -> Result<(AnyScene, String, String), Failure> {
+    let (text, origin) = scene_text(scene, preset)?;
+    let parsed = carom_scene::parse(&text, &origin)?;
+    Ok((parsed, origin, text))
+}
+
+/// The most worker threads, and thread ranks, a command may start: 8 per core, and at least
+/// 64 on any machine. Results are the same for every count; more threads than cores only wait
+/// for each other, and a typo (`--threads 100000`) would keep the machine busy for minutes
+/// creating them.
+pub fn thread_limit() -> usize {
+    (8 * carom_scene::machine::cores()).max(64)
+}
+
+fn check_count(flag: &str, count: usize) -> Result<(), Failure> {
+    let limit = thread_limit();
+    if count == 0 {
+        return Err(Failure::input(format!("{flag}: must be at least 1")));
+    }
+    if count > limit {
+        return Err(Failure::input(format!(
+            "{flag}: {count} is more than the limit of {limit} on this machine (8 per core, \
+             at least 64; {} cores here)",
+            carom_scene::machine::cores()
+        )));
+    }
+    Ok(())
+}
+
+/// Checks a thread count (`--threads`, else `RAYON_NUM_THREADS`): 1 to [`thread_limit`].
+pub fn check_threads(threads: Option<usize>) -> Result<(), Failure> {
+    if let Some(threads) = threads {
+        return check_count("--threads", threads);
+    }
+    // rayon reads RAYON_NUM_THREADS itself (0 or not a number: one per core); a typo there is
+    // as bad as one in --threads
+    if let Ok(value) = std::env::var("RAYON_NUM_THREADS") {
+        if let Ok(n) = value.trim().parse::<usize>() {
+            if n > 0 {
+                check_count("RAYON_NUM_THREADS", n)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Sets the global thread count (`--threads`, else `RAYON_NUM_THREADS`), refusing 0 and more
+/// than [`thread_limit`].
+pub fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
+    check_threads(threads)?;
+    let Some(threads) = threads else {
+        return Ok(());
+    };
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()
+        .map_err(|e| Failure::runtime(format!("cannot start {threads} threads: {e}")))
+}
+
+/// `--ranks`: 1 to [`thread_limit`] (each rank is a thread with a whole copy of the world).
+pub fn check_ranks(ranks: Option<usize>) -> Result<(), Failure> {
+    ranks.map_or(Ok(()), |r| check_count("--ranks", r))
+}
+
+/// A step count (`--steps`) of at most [`MAX_STEPS`].
+pub fn check_steps(flag: &str, steps: Option<u64>) -> Result<(), Failure> {
+    match steps {
+        Some(s) if s > MAX_STEPS => Err(Failure::input(format!(
+            "{flag}: {s} is more than the limit of {MAX_STEPS} steps"
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// `--cells`, before the scene is read: every entry at least 1, and no more cells in all than
+/// the grid allows.
+pub fn check_cells(cells: Option<&[usize]>) -> Result<(), Failure> {
+    let Some(cells) = cells else { return Ok(()) };
+    if cells.is_empty() || cells.contains(&0) {
+        return Err(Failure::input(format!(
+            "--cells: needs whole numbers >= 1, one per axis, got {cells:?}"
+        )));
+    }
+    let total = cells.iter().fold(1u64, |t, &c| t.saturating_mul(c as u64));
+    let limit = carom_engine::grid::MAX_CELLS;
+    if total > limit {
+        return Err(Failure::input(format!(
+            "--cells: {total} cells in all is more than the limit {limit}"
+        )));
+    }
+    Ok(())
+}
+
+/// Applies `--broadphase` and `--cells` to a scene.
+pub fn apply_overrides<V: Vector>(
+    scene: &mut Scene<V>,
+    broadphase: Option<&str>,
+    cells: Option<&[usize]>,
+) -> Result<(), Failure> {
+    match broadphase {
+        Some("brute") => scene.config.broad_phase = BroadPhaseKind::Brute,
+        Some("grid") => scene.config.broad_phase = BroadPhaseKind::Grid,
+        Some("hash") => scene.config.broad_phase = BroadPhaseKind::Hash,
+        Some(other) => return Err(Failure::input(format!("--broadphase: unknown `{other}`"))),
+        None => {}
+    }
+    if let Some(cells) = cells {
+        check_cells(Some(cells))?;
+        if cells.len() != V::DIM {
+            return Err(Failure::input(format!(
+                "--cells: needs {} whole numbers >= 1 (the scene is {}D), got {cells:?}",
+                V::DIM,
+                V::DIM
+            )));
+        }
+        if scene.config.broad_phase != BroadPhaseKind::Grid {
+            return Err(Failure::input(
+                "--cells: only the grid has cells, and this run does not use it; add --broadphase grid",
+            ));
+        }
+        scene.config.grid_cells = Some(cells.to_vec());
+    }
+    Ok(())
+}
+
+/// `WIDTHxHEIGHT` (or `WIDTHXHEIGHT`) with each side in `sides`, for `flag`.
+pub fn parse_size(
+    flag: &str,
+    text: &str,
+    sides: std::ops::RangeInclusive<u32>,
+) -> Result<(u32, u32), Failure> {
+    let bad = || {
+        Failure::input(format!(
+            "{flag}: expected WIDTHxHEIGHT with each side {}..={}, e.g. 800x800, got `{text}`",
+            sides.start(),
+            sides.end()
+        ))
+    };
+    let (w, h) = text.split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    if !sides.contains(&w) || !sides.contains(&h) {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+/// Refuses an output path whose folder is missing or which is a folder itself, before any
+/// work is done.
+pub fn check_output_path(flag: &str, out: &Path) -> Result<(), Failure> {
+    let dir = match out.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(Failure::input(format!(
+            "{flag}: folder {} does not exist",
+            dir.display()
+        )));
+    }
+    if out.is_dir() {
+        return Err(Failure::input(format!(
+            "{flag}: {} is a folder",
+            out.display()
+        )));
+    }
+    Ok(())
+}
+
+/// The file a path names, for comparing paths: its folder resolved (links, `..`), its name as
+/// given. `None` when the folder does not exist (then [`check_output_path`] refuses it).
+fn file_identity(path: &Path) -> Option<PathBuf> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    Some(dir.canonicalize().ok()?.join(path.file_name()?))
+}
+
+/// Refuses two outputs naming the same file, and an output naming one of the `inputs` (the
+/// scene or checkpoint being read, which it would overwrite).
+pub fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), Failure> {
+    for (i, (flag, path)) in outputs.iter().enumerate() {
+        let Some(id) = file_identity(path) else {
+            continue;
+        };
+        for (other, other_path) in &outputs[..i] {
+            if file_identity(other_path).as_ref() == Some(&id) {
+                return Err(Failure::input(format!(
+                    "{flag}: {} is also the file of {other}; give each its own",
+                    path.display()
+                )));
+            }
+        }
+        for (what, input) in inputs {
+            if file_identity(input).as_ref() == Some(&id) {
+                return Err(Failure::input(format!(
+                    "{flag}: {} is the {what} being read, which this would overwrite",
+                    path.display()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes() {
+        assert_eq!(
+            parse_size("--size", "800x600", 1..=8192).ok(),
+            Some((800, 600))
+        );
+        assert_eq!(
+            parse_size("--size", "8192X1", 1..=8192).ok(),
+            Some((8192, 1))
+        );
+        for bad in ["800", "10x10", "axb", "0x5", "-1x200", "300x20000", ""] {
+            let e = parse_size("--size", bad, 200..=16384).expect_err(bad);
+            assert_eq!(e.status(), 2);
+            assert!(e.to_string().starts_with("--size: "), "{e}");
+        }
+    }
+
+    #[test]
+    fn counts_are_bounded() {
+        assert!(check_count("--threads", 1).is_ok());
+        assert!(check_count("--threads", thread_limit()).is_ok());
+        let e = check_count("--threads", thread_limit() + 1).unwrap_err();
+        assert!(e.to_string().starts_with("--threads: "), "{e}");
+        assert!(check_count("--ranks", 0).is_err());
+        assert!(thread_limit() >= 64);
+    }
+
+    #[test]
+    fn cells_and_steps_are_bounded() {
+        assert!(check_cells(Some(&[100, 100])).is_ok());
+        assert!(check_cells(Some(&[0, 5])).is_err());
+        assert!(check_cells(Some(&[1 << 20, 1 << 20, 1 << 20])).is_err());
+        assert!(check_steps("--steps", Some(MAX_STEPS)).is_ok());
+        assert!(check_steps("--steps", Some(MAX_STEPS + 1)).is_err());
+    }
+
+    #[test]
+    fn outputs_must_be_distinct_and_not_an_input() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.csv");
+        let same = dir.path().join(".").join("a.csv");
+        let b = dir.path().join("b.csv");
+        assert!(check_distinct(&[("--out", &a), ("--trajectory", &b)], &[]).is_ok());
+        let e = check_distinct(&[("--out", &a), ("--trajectory", &same)], &[]).unwrap_err();
+        assert!(e.to_string().starts_with("--trajectory: "), "{e}");
+        let e = check_distinct(&[("--out", &a)], &[("scene file", &same)]).unwrap_err();
+        assert!(e.to_string().contains("scene file"), "{e}");
+    }
+}

@@ -1,0 +1,172 @@
+//! `carom resume`: continue a run from its checkpoint, bit for bit, through the same driver as
+//! `carom run`.
+
+use crate::driver::step::{Outputs, Settings};
+use crate::driver::Labels;
+use crate::failure::Failure;
+use crate::input::{
+    apply_overrides, check_distinct, check_output_path, check_ranks, check_steps, set_threads,
+};
+use crate::launch::run_world;
+use carom_engine::{ContactImpulses, Vector};
+use carom_output::checkpoint::Checkpoint;
+use std::path::{Path, PathBuf};
+
+/// Options of `carom resume`.
+#[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("framed").args(["trajectory", "observe"]).multiple(true)))]
+pub struct ResumeArgs {
+    /// A checkpoint written by `carom run --checkpoint`.
+    pub checkpoint: PathBuf,
+    /// Total steps to reach (default: the original run's), at least the checkpoint's step and
+    /// at most 10^12.
+    #[arg(long, allow_negative_numbers = true)]
+    pub steps: Option<u64>,
+    /// Write the final state here as CSV.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Keep checkpointing (to this file) every `--checkpoint-every` steps.
+    #[arg(long, requires = "checkpoint_every")]
+    pub checkpoint_to: Option<PathBuf>,
+    /// Steps between checkpoints (with `--checkpoint-to`).
+    #[arg(long, requires = "checkpoint_to", allow_negative_numbers = true)]
+    pub checkpoint_every: Option<u64>,
+    /// Append trajectory frames to this CSV (or VTK series, for a `.pvd`) every `--every` steps.
+    #[arg(long, requires = "every")]
+    pub trajectory: Option<PathBuf>,
+    /// Append the observables to this CSV every `--every` steps (see `carom run --observe`).
+    #[arg(long, requires = "every")]
+    pub observe: Option<PathBuf>,
+    /// Steps between trajectory frames and observables rows.
+    #[arg(long, requires = "framed", allow_negative_numbers = true)]
+    pub every: Option<u64>,
+    /// Worker threads, 1 to 8 per core (at least 64 on any machine).
+    #[arg(long, allow_negative_numbers = true)]
+    pub threads: Option<usize>,
+    /// Split the continued run over N ranks, as threads (see `carom run --ranks`); under
+    /// `mpirun` the run is split over its processes anyway.
+    #[arg(long, allow_negative_numbers = true)]
+    pub ranks: Option<usize>,
+}
+
+/// `carom resume`.
+pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
+    set_threads(args.threads)?;
+    check_ranks(args.ranks)?;
+    check_steps("--steps", args.steps)?;
+    let outputs = [
+        ("--out", args.out.as_deref()),
+        ("--checkpoint-to", args.checkpoint_to.as_deref()),
+        ("--trajectory", args.trajectory.as_deref()),
+        ("--observe", args.observe.as_deref()),
+    ];
+    let outputs: Vec<(&str, &Path)> = outputs
+        .into_iter()
+        .filter_map(|(flag, path)| Some((flag, path?)))
+        // writing the next checkpoints over the one being read is how a long run goes on
+        .filter(|(flag, _)| *flag != "--checkpoint-to")
+        .collect();
+    check_distinct(&outputs, &[("checkpoint", &args.checkpoint)])?;
+    let shown = args.checkpoint.display().to_string();
+    let bytes = std::fs::read(&args.checkpoint)
+        .map_err(|e| Failure::input(format!("{shown}: cannot read checkpoint: {e}")))?;
+    let cp = Checkpoint::read_from(&bytes).map_err(|source| Failure::Checkpoint {
+        path: shown.clone(),
+        source,
+    })?;
+    if let Some(steps) = args.steps {
+        if steps < cp.steps_taken {
+            return Err(Failure::input(format!(
+                "--steps: {steps} is before the checkpoint, which is at step {} already; give \
+                 the total to reach, at least {}",
+                cp.steps_taken, cp.steps_taken
+            )));
+        }
+    }
+    let settings: Settings = serde_json::from_str(&cp.settings_json)
+        .map_err(|e| Failure::input(format!("{shown}: damaged run settings: {e}")))?;
+    let outputs = Outputs {
+        checkpoint: args.checkpoint_to.clone().zip(args.checkpoint_every),
+        trajectory: args.trajectory.clone().zip(args.every),
+        observe: args.observe.clone().zip(args.every),
+        scene_toml: cp.scene_toml.clone(),
+        origin: cp.origin.clone(),
+        settings: Settings {
+            steps: args.steps.unwrap_or(settings.steps),
+            ..settings.clone()
+        },
+    };
+    outputs.check()?;
+    if let Some(out) = &args.out {
+        check_output_path("--out", out)?;
+    }
+    let scene = carom_scene::parse(&cp.scene_toml, &cp.origin)
+        .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
+    match scene {
+        carom_scene::AnyScene::Two(s) => resume_scene(s, &cp, &settings, &outputs, args),
+        carom_scene::AnyScene::Three(s) => resume_scene(s, &cp, &settings, &outputs, args),
+    }
+}
+
+fn resume_scene<V: Vector>(
+    mut scene: carom_scene::Scene<V>,
+    cp: &Checkpoint,
+    settings: &Settings,
+    outputs: &Outputs,
+    args: &ResumeArgs,
+) -> Result<(), Failure> {
+    let shown = args.checkpoint.display().to_string();
+    if cp.dimensions as usize != V::DIM {
+        return Err(Failure::input(format!(
+            "{shown}: damaged checkpoint: dimensions disagree with its scene"
+        )));
+    }
+    apply_overrides(
+        &mut scene,
+        settings.broadphase.as_deref(),
+        settings.cells.as_deref(),
+    )?;
+    let mut particles = carom_engine::Particles::new();
+    for id in 0..cp.radii.len() {
+        let d = V::DIM;
+        particles
+            .push(
+                V::from_slice(&cp.positions[id * d..id * d + d]),
+                V::from_slice(&cp.velocities[id * d..id * d + d]),
+                cp.radii[id],
+                cp.masses[id],
+            )
+            .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
+    }
+    scene.particles = particles;
+    let name = scene.name.clone();
+    let rebuild = || {
+        scene
+            .clone()
+            .into_resumed_world(
+                cp.steps_taken,
+                cp.storage_order.clone(),
+                ContactImpulses {
+                    pairs: cp.pair_impulses.clone(),
+                    planes: cp.plane_impulses.clone(),
+                    rest: cp.rest.clone(),
+                },
+                cp.tally,
+            )
+            .map_err(|e| Failure::input(format!("{shown}: {e}")))
+    };
+    let world = rebuild()?;
+    let run = Labels {
+        name: name.as_deref(),
+        origin: &shown,
+        out: args.out.as_deref(),
+    };
+    run_world(
+        world,
+        &rebuild,
+        args.ranks,
+        outputs.settings.steps,
+        outputs,
+        &run,
+    )
+}

@@ -1,0 +1,52 @@
+//! What this machine says about itself through `/proc` (Linux): total memory, this process's
+//! peak resident memory and the CPU's model name. The one place carom reads `/proc`: the scene
+//! loader (fills that cannot fit in memory) and the command line (`carom bench`, `carom soak`)
+//! both ask here. Elsewhere every answer is `None`.
+
+/// A `/proc` file's line `KEY: number ...` (e.g. `MemTotal:       23998640 kB`): the number.
+fn field(file: &str, key: &str) -> Option<u64> {
+    let text = std::fs::read_to_string(file).ok()?;
+    let line = text.lines().find(|l| l.starts_with(key))?;
+    line[key.len()..].split_whitespace().next()?.parse().ok()
+}
+
+/// Total memory in bytes (`MemTotal` of `/proc/meminfo`).
+pub fn total_memory_bytes() -> Option<u64> {
+    field("/proc/meminfo", "MemTotal:").map(|kib| kib * 1024)
+}
+
+/// This process's peak resident memory so far in bytes (`VmHWM` of `/proc/self/status`).
+pub fn peak_rss_bytes() -> Option<u64> {
+    field("/proc/self/status", "VmHWM:").map(|kib| kib * 1024)
+}
+
+/// The CPU's model name (the first `model name` of `/proc/cpuinfo`).
+pub fn cpu_model() -> Option<String> {
+    let text = std::fs::read_to_string("/proc/cpuinfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("model name"))?;
+    Some(line.split_once(':')?.1.trim().to_string())
+}
+
+/// Cores this process may use (1 when the system does not say).
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn linux_answers() {
+        assert!(total_memory_bytes().is_some_and(|b| b > 1 << 20));
+        assert!(peak_rss_bytes().is_some_and(|b| b > 0));
+        assert!(cores() >= 1);
+    }
+
+    #[test]
+    fn missing_files_and_keys_are_none() {
+        assert_eq!(field("/nonexistent/meminfo", "MemTotal:"), None);
+        assert_eq!(field("/proc/self/status", "NoSuchKey:"), None);
+    }
+}
