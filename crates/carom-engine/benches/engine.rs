@@ -17,6 +17,8 @@
 //! `cargo bench -p carom-engine` (about two minutes on 2 cores); `-- --quick` for a fast look,
 //! `-- lecture` for one group.
 
+#![allow(missing_docs)] // (criterion_group! and criterion_main! generate undocumented functions)
+
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::{response, Aabb, BroadPhaseKind, Particles, Plane, Vector, World};
 use criterion::{
