@@ -91,8 +91,9 @@ class World:
     def momentum(self) -> npt.NDArray[np.float64]:
         """Total momentum `sum m v`, shape (d,)."""
     def contacts(self) -> npt.NDArray[np.int64]:
-        """The last step's touching pairs, shape (M, 2), ids `a < b`, sorted; (0, 2) before
-        the first step."""
+        """The last step's touching pairs, shape (M, 2), ids `a < b`, sorted: those the
+        lecture's detection finds overlapping (`distance < r1 + r2`) at the start of the
+        step's velocity phase. (0, 2) before the first step; islands asleep are not listed."""
     def observe(self) -> Dict[str, Union[int, float]]:
         """One row of `carom run --observe`: `step`, `time`, `kinetic_energy`,
         `potential_energy`, `temperature`, `collisions` (since the first reading), `pressure`
