@@ -81,7 +81,8 @@ class World:
         """The scene's path as given to `load`, `preset:NAME`, or `<string>`."""
     @property
     def scene_steps(self) -> int:
-        """The scene's `steps`: what `carom run` runs when given no `--steps`."""
+        """The run's total steps: the scene's `steps` (what `carom run` runs when given no
+        `--steps`), or for a resumed world the total of the run that wrote the checkpoint."""
     def __len__(self) -> int:
         """The number of particles, N."""
     def kinetic_energy(self) -> float:

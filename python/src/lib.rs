@@ -491,8 +491,9 @@ impl World {
         Ok(self.lock()?.meta.origin.clone())
     }
 
-    /// The scene's `steps`: what `carom run` runs when given no `--steps` (and what
-    /// `carom resume` continues to from a checkpoint of this world).
+    /// The run's total steps: the scene's `steps` (what `carom run` runs when given no
+    /// `--steps`), or for a resumed world the total of the run that wrote the checkpoint.
+    /// `carom resume` continues a checkpoint of this world to it.
     #[getter]
     fn scene_steps(&self) -> PyResult<u64> {
         Ok(self.lock()?.meta.settings.steps)
