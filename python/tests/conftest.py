@@ -11,6 +11,38 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 SCENES = ROOT / "scenes"
 
 
+# 120 discs poured into a small walled box at dt = 1/60: resting contacts from about step 250,
+# the whole pile asleep from step 355 (a cheap stand-in for `lecture_pile_60hz`).
+SMALL_PILE = """
+name = "A small pile at dt = 1/60"
+dimensions = 2
+dt = 0.016666666666666666
+steps = 600
+gravity = [0.0, -9.81]
+restitution = 0.5
+
+[domain]
+min = [-15.0, -15.0]
+max = [15.0, 15.0]
+walls = true
+
+[[fill]]
+count = 120
+radius = 1.0
+mass = 1.0
+speed = 2.0
+seed = 7
+"""
+
+
+@pytest.fixture
+def small_pile(tmp_path):
+    """The path of a file holding SMALL_PILE."""
+    path = tmp_path / "small_pile.toml"
+    path.write_text(SMALL_PILE)
+    return path
+
+
 def _find_binary():
     given = os.environ.get("CAROM_BIN")
     if given:

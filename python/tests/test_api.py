@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import carom
+from conftest import SMALL_PILE
 
 
 @pytest.fixture(params=["lecture_100_k05", "box_3d"])
@@ -49,7 +50,7 @@ def test_time_steps_and_sums(world):
 
 
 def test_contacts_are_touching_pairs_in_id_order():
-    world = carom.preset("lecture_pile_60hz")
+    world = carom.from_toml(SMALL_PILE)
     world.step(300)
     c = world.contacts()
     assert len(c) > 0
@@ -58,7 +59,7 @@ def test_contacts_are_touching_pairs_in_id_order():
     x, r = world.positions, world.radii
     gap = np.linalg.norm(x[c[:, 0]] - x[c[:, 1]], axis=1) - r[c[:, 0]] - r[c[:, 1]]
     assert np.all(gap < 0.05 * r[c[:, 0]]), "touching (within a step's motion)"
-    assert carom.preset("lecture_pile_60hz").contacts().shape == (0, 2)
+    assert carom.from_toml(SMALL_PILE).contacts().shape == (0, 2)
 
 
 def test_observe_has_what_carom_run_observe_writes(world):
