@@ -1,14 +1,14 @@
 //! The `carom` Python module: PyO3 bindings over `carom-engine`, `carom-scene` and
 //! `carom-output`.
 //!
-//! A [`World`] is built exactly as `carom run` builds it (the scene parsed by
+//! A `World` is built exactly as `carom run` builds it (the scene parsed by
 //! `carom_scene::parse`, the world by `Scene::into_world`) and stepped by the same
 //! `World::step`, on the same rayon pool, so a world stepped from Python gives the very bits the
 //! CLI gives. Checkpoints and state CSV files are written by `carom-output`, in the CLI's
 //! formats, atomically.
 //!
-//! Stepping releases the GIL; every [`CHUNK`] of wall time the loop takes it back for a moment
-//! to let Python run its signal handlers, so Ctrl-C stops the loop between two steps.
+//! Stepping releases the GIL; every `CHUNK` (50 ms) of wall time the loop takes it back for a
+//! moment to let Python run its signal handlers, so Ctrl-C stops the loop between two steps.
 
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::{BroadPhaseKind, ContactImpulses, Observables, Particles, Vector};
@@ -133,8 +133,8 @@ impl World {
             Ok(guard) => guard,
             Err(TryLockError::WouldBlock) => {
                 return Err(PyRuntimeError::new_err(
-                    "this World is busy: another thread is stepping it (World.step releases \
-                     the GIL); use it once that step() has returned",
+                    "this World is busy: another thread is stepping it (or writing it to a \
+                     file) without the GIL; use it once that call has returned",
                 ))
             }
             Err(TryLockError::Poisoned(poisoned)) => poisoned.into_inner(),
