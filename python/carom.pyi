@@ -10,10 +10,12 @@ masses.
 """
 
 import os
-from typing import Dict, List, Optional, Union
+from typing import Dict, List, Optional, Union, final
 
 import numpy as np
 import numpy.typing as npt
+
+__all__ = ["SceneError", "World", "__version__", "from_toml", "load", "preset", "presets", "resume"]
 
 __version__: str
 
@@ -32,6 +34,7 @@ class SceneError(ValueError):
     """The dotted path of the offending field, e.g. `particles[3].radius`; None when the
     problem is the whole file (malformed TOML, with its own line and column)."""
 
+@final
 class World:
     """A particle system built from a scene, stepped in time.
 
@@ -43,9 +46,10 @@ class World:
     def step(self, n: int = 1) -> None:
         """Advance by `n` time steps (`n * dt` time units), as `carom run` does.
 
-        The GIL is released while the engine works. Ctrl-C (KeyboardInterrupt, or an exception
-        raised by any signal handler) stops the loop between two steps: the exception
-        propagates and the world is left at a whole step (`steps` says which).
+        The GIL is released while the engine works. In the main thread, Ctrl-C
+        (KeyboardInterrupt, or an exception raised by any signal handler) stops the loop
+        between two steps: the exception propagates and the world is left at a whole step
+        (`steps` says which).
 
         Raises ValueError for `n < 0`.
         """

@@ -388,9 +388,10 @@ impl World {
     /// Advance the world by `n` time steps (`n * dt` time units), as `carom run` does.
     ///
     /// The GIL is released while the engine works, so other Python threads run meanwhile.
-    /// Ctrl-C (KeyboardInterrupt, or any exception a signal handler raises) stops the loop
-    /// between two steps: the exception propagates and the world is left at a whole step
-    /// (`steps` says which), ready to step on or to checkpoint.
+    /// In the main thread, Ctrl-C (KeyboardInterrupt, or any exception a signal handler
+    /// raises) stops the loop between two steps, within 50 ms or one step: the exception
+    /// propagates and the world is left at a whole step (`steps` says which), ready to step
+    /// on or to checkpoint.
     #[pyo3(signature = (n = 1))]
     fn step(&self, py: Python<'_>, n: i64) -> PyResult<()> {
         if n < 0 {
