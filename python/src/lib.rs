@@ -1,0 +1,797 @@
+//! The `carom` Python module: PyO3 bindings over `carom-engine`, `carom-scene` and
+//! `carom-output`.
+//!
+//! A `World` is built exactly as `carom run` builds it (the scene parsed by
+//! `carom_scene::parse`, the world by `Scene::into_world`) and stepped by the same
+//! `World::step`, on the same rayon pool, so a world stepped from Python gives the very bits the
+//! CLI gives. Checkpoints and state CSV files are written by `carom-output`, in the CLI's
+//! formats, atomically.
+//!
+//! Stepping releases the GIL; every `CHUNK` (50 ms) of wall time the loop takes it back for a
+//! moment to let Python run its signal handlers, so Ctrl-C stops the loop between two steps.
+
+use carom_engine::glam::{DVec2, DVec3};
+use carom_engine::{BroadPhaseKind, ContactImpulses, Observables, Particles, Vector};
+use carom_output::checkpoint::Checkpoint;
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::{
+    PyFileNotFoundError, PyIsADirectoryError, PyOSError, PyRuntimeError, PyValueError,
+};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard, TryLockError};
+use std::time::{Duration, Instant};
+
+create_exception!(
+    carom,
+    SceneError,
+    PyValueError,
+    "A scene that could not be parsed or accepted.\n\n\
+     The message is the one `carom run` prints: the file (or `preset:NAME`, or `<string>` for\n\
+     `from_toml`), the field and what is wrong with it. The attributes `origin` (str) and\n\
+     `field` (str or None) hold the first two on their own."
+);
+
+/// How long the step loop runs without the GIL before it checks for Ctrl-C.
+const CHUNK: Duration = Duration::from_millis(50);
+
+/// The origin `from_toml` gives its scenes in messages and checkpoints.
+const STRING_ORIGIN: &str = "<string>";
+
+/// Run settings a checkpoint carries besides the scene text: the JSON that `carom run`
+/// writes (`crates/carom-cli/src/session.rs`, `Settings`), field for field.
+#[derive(serde::Serialize, serde::Deserialize, Debug, Clone, Default)]
+struct Settings {
+    /// Total steps of the run (`carom resume` continues to this many).
+    steps: u64,
+    /// `--broadphase` override, if any.
+    broadphase: Option<String>,
+    /// `--cells` override, if any.
+    cells: Option<Vec<usize>>,
+}
+
+/// A world of either dimension.
+enum AnyWorld {
+    Two(carom_engine::World<DVec2>),
+    Three(carom_engine::World<DVec3>),
+}
+
+impl AnyWorld {
+    /// 2 or 3.
+    fn dimensions(&self) -> usize {
+        match self {
+            AnyWorld::Two(_) => 2,
+            AnyWorld::Three(_) => 3,
+        }
+    }
+}
+
+/// Runs `$body` with `$w` bound to the world inside `$any`, whatever its dimension.
+macro_rules! with_world {
+    ($any:expr, $w:ident => $body:expr) => {
+        match $any {
+            AnyWorld::Two($w) => $body,
+            AnyWorld::Three($w) => $body,
+        }
+    };
+}
+
+/// What a checkpoint needs besides the world, and what `repr` shows.
+struct Meta {
+    /// The scene's TOML text (kept in checkpoints).
+    scene_toml: String,
+    /// Where it came from: a path, `preset:NAME` or `<string>`.
+    origin: String,
+    /// The scene's `name`.
+    name: Option<String>,
+    settings: Settings,
+}
+
+struct State {
+    world: AnyWorld,
+    meta: Meta,
+    /// Set when the engine panicked in a step: the world may be half stepped.
+    broken: Option<String>,
+}
+
+/// A particle system built from a scene, stepped in time.
+///
+/// Make one with `carom.load(path)`, `carom.from_toml(text)`, `carom.preset(name)` or
+/// `carom.resume(checkpoint_path)`. Units are the scene's own (carom has none of its own):
+/// lengths as the scene's positions and radii, time as its `dt`, mass as its masses.
+///
+/// Arrays are copies in id order (the order of the scene's particles, explicit ones first,
+/// then each fill), float64 unless said otherwise. Changing them changes nothing in the world:
+/// use `set_velocities`.
+///
+/// A world may be used from any thread, one at a time: while `step` runs (without the GIL),
+/// any other use of the same world from another thread raises RuntimeError.
+#[pyclass(frozen, module = "carom")]
+struct World {
+    state: Mutex<State>,
+}
+
+impl World {
+    fn new(world: AnyWorld, meta: Meta) -> Self {
+        World {
+            state: Mutex::new(State {
+                world,
+                meta,
+                broken: None,
+            }),
+        }
+    }
+
+    /// The state, or why it cannot be had: another thread is stepping the world, or a step
+    /// failed inside the engine.
+    fn lock(&self) -> PyResult<MutexGuard<'_, State>> {
+        let guard = match self.state.try_lock() {
+            Ok(guard) => guard,
+            Err(TryLockError::WouldBlock) => {
+                return Err(PyRuntimeError::new_err(
+                    "this World is busy: another thread is stepping it (or writing it to a \
+                     file) without the GIL; use it once that call has returned",
+                ))
+            }
+            Err(TryLockError::Poisoned(poisoned)) => poisoned.into_inner(),
+        };
+        if let Some(why) = &guard.broken {
+            return Err(PyRuntimeError::new_err(format!(
+                "this World can no longer be used: a step failed inside the engine ({why}); \
+                 please report it with the scene"
+            )));
+        }
+        Ok(guard)
+    }
+}
+
+/// `(N, d)` float64 array of one vector per particle.
+fn vectors<'py, V: Vector>(py: Python<'py>, values: &[V]) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let flat: Vec<f64> = values
+        .iter()
+        .flat_map(|v| (0..V::DIM).map(move |a| v.get(a)))
+        .collect();
+    let array = Array2::from_shape_vec((values.len(), V::DIM), flat)
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    Ok(array.into_pyarray(py))
+}
+
+/// `(d,)` float64 array of one vector.
+fn vector<'py, V: Vector>(py: Python<'py>, v: V) -> Bound<'py, PyArray1<f64>> {
+    let values: Vec<f64> = (0..V::DIM).map(|a| v.get(a)).collect();
+    PyArray1::from_vec(py, values)
+}
+
+/// An OSError for `path` (FileNotFoundError, PermissionError, ... by the errno of `error`):
+/// `what` and the system's reason, e.g. `[Errno 2] cannot read scene file: No such file or
+/// directory: 'x.toml'`.
+fn os_error(what: &str, error: &std::io::Error, path: &Path) -> PyErr {
+    let reason = error.to_string();
+    // (the errno is in the exception already)
+    let reason = match reason.rfind(" (os error ") {
+        Some(at) => &reason[..at],
+        None => &reason[..],
+    };
+    let message = format!("{what}: {reason}");
+    match error.raw_os_error() {
+        Some(errno) => PyOSError::new_err((errno, message, path.display().to_string())),
+        None => PyOSError::new_err(format!("{message}: {}", path.display())),
+    }
+}
+
+/// Refuses an output path whose folder is missing or which is a folder itself (what the CLI
+/// checks before a run).
+fn check_output_path(path: &Path) -> PyResult<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(PyFileNotFoundError::new_err(format!(
+            "cannot write {}: folder {} does not exist",
+            path.display(),
+            dir.display()
+        )));
+    }
+    if path.is_dir() {
+        return Err(PyIsADirectoryError::new_err(format!(
+            "cannot write {}: it is a folder",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+/// A `carom.SceneError` with `message`, and `origin` and `field` as attributes.
+fn scene_error(py: Python<'_>, message: String, origin: &str, field: Option<&str>) -> PyErr {
+    let err = SceneError::new_err(message);
+    let value = err.value(py);
+    // (setting attributes on a fresh exception object cannot fail but for memory)
+    let _ = value.setattr("origin", origin);
+    let _ = value.setattr("field", field);
+    err
+}
+
+/// Builds the world of `text` (from `origin`) as `carom run` does.
+fn build(py: Python<'_>, text: String, origin: String) -> PyResult<World> {
+    let scene = carom_scene::parse(&text, &origin)
+        .map_err(|e| scene_error(py, e.to_string(), &e.origin, e.field.as_deref()))?;
+    let (name, steps) = match &scene {
+        carom_scene::AnyScene::Two(s) => (s.name.clone(), s.steps),
+        carom_scene::AnyScene::Three(s) => (s.name.clone(), s.steps),
+    };
+    let built = match scene {
+        carom_scene::AnyScene::Two(s) => s.into_world().map(AnyWorld::Two),
+        carom_scene::AnyScene::Three(s) => s.into_world().map(AnyWorld::Three),
+    };
+    let world = built.map_err(|e| scene_error(py, format!("{origin}: {e}"), &origin, None))?;
+    Ok(World::new(
+        world,
+        Meta {
+            scene_toml: text,
+            origin,
+            name,
+            settings: Settings {
+                steps,
+                broadphase: None,
+                cells: None,
+            },
+        },
+    ))
+}
+
+/// Steps `world` until `left` is 0 or [`CHUNK`] has passed, on the rayon pool as `carom run`
+/// steps (see `Stepper::run_loop` in the CLI).
+fn run_chunk(world: &mut AnyWorld, left: &mut u64) {
+    rayon::scope(|_| {
+        let started = Instant::now();
+        while *left > 0 {
+            with_world!(&mut *world, w => { w.step(); });
+            *left -= 1;
+            if started.elapsed() >= CHUNK {
+                break;
+            }
+        }
+    });
+}
+
+/// The text of a panic's payload.
+fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        s.to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "a panic".to_string()
+    }
+}
+
+fn observables<'py>(py: Python<'py>, o: &Observables) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("step", o.step)?;
+    d.set_item("time", o.time)?;
+    d.set_item("kinetic_energy", o.kinetic_energy)?;
+    d.set_item("potential_energy", o.potential_energy)?;
+    d.set_item("temperature", o.temperature)?;
+    d.set_item("collisions", o.collisions)?;
+    d.set_item("pressure", o.pressure)?;
+    d.set_item("max_overlap", o.max_overlap)?;
+    Ok(d)
+}
+
+/// A checkpoint of `world`, as `carom run --checkpoint` writes it.
+fn checkpoint_of<V: Vector>(
+    world: &carom_engine::World<V>,
+    meta: &Meta,
+) -> Result<Checkpoint, String> {
+    let n = world.len();
+    let impulses = world.contact_impulses();
+    let mut cp = Checkpoint {
+        dimensions: V::DIM as u32,
+        steps_taken: world.steps_taken(),
+        scene_toml: meta.scene_toml.clone(),
+        origin: meta.origin.clone(),
+        settings_json: serde_json::to_string(&meta.settings).map_err(|e| e.to_string())?,
+        storage_order: world.storage_order().to_vec(),
+        positions: Vec::with_capacity(n * V::DIM),
+        velocities: Vec::with_capacity(n * V::DIM),
+        radii: Vec::with_capacity(n),
+        masses: Vec::with_capacity(n),
+        pair_impulses: impulses.pairs,
+        plane_impulses: impulses.planes,
+        rest: impulses.rest,
+        tally: world.tally(),
+    };
+    for id in 0..n {
+        let (x, v, r, m) = world.particle(id);
+        cp.positions.extend((0..V::DIM).map(|a| x.get(a)));
+        cp.velocities.extend((0..V::DIM).map(|a| v.get(a)));
+        cp.radii.push(r);
+        cp.masses.push(m);
+    }
+    Ok(cp)
+}
+
+/// Applies a checkpoint's `--broadphase` and `--cells` overrides to its scene, as
+/// `carom resume` does.
+fn apply_overrides<V: Vector>(
+    scene: &mut carom_scene::Scene<V>,
+    settings: &Settings,
+) -> Result<(), String> {
+    match settings.broadphase.as_deref() {
+        Some("brute") => scene.config.broad_phase = BroadPhaseKind::Brute,
+        Some("grid") => scene.config.broad_phase = BroadPhaseKind::Grid,
+        Some("hash") => scene.config.broad_phase = BroadPhaseKind::Hash,
+        Some(other) => return Err(format!("--broadphase: unknown `{other}`")),
+        None => {}
+    }
+    if let Some(cells) = &settings.cells {
+        if cells.len() != V::DIM || cells.contains(&0) {
+            return Err(format!(
+                "--cells: needs {} whole numbers >= 1 (the scene is {}D), got {cells:?}",
+                V::DIM,
+                V::DIM
+            ));
+        }
+        if scene.config.broad_phase != BroadPhaseKind::Grid {
+            return Err("--cells: only the grid has cells, and this run does not use it".into());
+        }
+        scene.config.grid_cells = Some(cells.to_vec());
+    }
+    Ok(())
+}
+
+/// The world a checkpoint holds, as `carom resume` rebuilds it; errors as the CLI words them
+/// (after `shown: `).
+fn resumed<V: Vector>(
+    mut scene: carom_scene::Scene<V>,
+    cp: &Checkpoint,
+    settings: &Settings,
+) -> Result<carom_engine::World<V>, String> {
+    if cp.dimensions as usize != V::DIM {
+        return Err("damaged checkpoint: dimensions disagree with its scene".into());
+    }
+    apply_overrides(&mut scene, settings)?;
+    let d = V::DIM;
+    let mut particles = Particles::new();
+    for id in 0..cp.radii.len() {
+        particles
+            .push(
+                V::from_slice(&cp.positions[id * d..id * d + d]),
+                V::from_slice(&cp.velocities[id * d..id * d + d]),
+                cp.radii[id],
+                cp.masses[id],
+            )
+            .map_err(|e| e.to_string())?;
+    }
+    scene.particles = particles;
+    scene
+        .into_resumed_world(
+            cp.steps_taken,
+            cp.storage_order.clone(),
+            ContactImpulses {
+                pairs: cp.pair_impulses.clone(),
+                planes: cp.plane_impulses.clone(),
+                rest: cp.rest.clone(),
+            },
+            cp.tally,
+        )
+        .map_err(|e| e.to_string())
+}
+
+#[pymethods]
+impl World {
+    /// Advance the world by `n` time steps (`n * dt` time units), as `carom run` does.
+    ///
+    /// The GIL is released while the engine works, so other Python threads run meanwhile.
+    /// In the main thread, Ctrl-C (KeyboardInterrupt, or any exception a signal handler
+    /// raises) stops the loop between two steps, within 50 ms or one step: the exception
+    /// propagates and the world is left at a whole step (`steps` says which), ready to step
+    /// on or to checkpoint.
+    #[pyo3(signature = (n = 1))]
+    fn step(&self, py: Python<'_>, n: i64) -> PyResult<()> {
+        if n < 0 {
+            return Err(PyValueError::new_err(format!(
+                "n: the number of steps must be >= 0, got {n}"
+            )));
+        }
+        let mut guard = self.lock()?;
+        let state: &mut State = &mut guard;
+        let mut left = n as u64;
+        while left > 0 {
+            let world = &mut state.world;
+            let left_ref = &mut left;
+            let outcome =
+                py.detach(|| catch_unwind(AssertUnwindSafe(|| run_chunk(world, left_ref))));
+            if let Err(payload) = outcome {
+                let why = panic_text(&*payload);
+                state.broken = Some(why.clone());
+                return Err(PyRuntimeError::new_err(format!(
+                    "a step failed inside the engine: {why}"
+                )));
+            }
+            if left > 0 {
+                // Between two whole steps: a KeyboardInterrupt leaves the world here.
+                py.check_signals()?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Particle positions: float64 array of shape (N, d), in id order (length units).
+    #[getter]
+    fn positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let state = self.lock()?;
+        with_world!(&state.world, w => vectors(py, w.particles().positions()))
+    }
+
+    /// Particle velocities: float64 array of shape (N, d), in id order (length per time unit).
+    #[getter]
+    fn velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let state = self.lock()?;
+        with_world!(&state.world, w => vectors(py, w.particles().velocities()))
+    }
+
+    /// Particle radii: float64 array of shape (N,), in id order (length units).
+    #[getter]
+    fn radii<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let state = self.lock()?;
+        let radii = with_world!(&state.world, w => w.particles().radii().to_vec());
+        Ok(PyArray1::from_vec(py, radii))
+    }
+
+    /// Particle masses: float64 array of shape (N,), in id order (mass units).
+    #[getter]
+    fn masses<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let state = self.lock()?;
+        let masses = with_world!(&state.world, w => w.particles().masses().to_vec());
+        Ok(PyArray1::from_vec(py, masses))
+    }
+
+    /// Simulated time so far, `steps * dt` (time units).
+    #[getter]
+    fn time(&self) -> PyResult<f64> {
+        let state = self.lock()?;
+        Ok(with_world!(&state.world, w => w.time()))
+    }
+
+    /// Steps taken so far (int; a resumed world counts the steps before its checkpoint).
+    #[getter]
+    fn steps(&self) -> PyResult<u64> {
+        let state = self.lock()?;
+        Ok(with_world!(&state.world, w => w.steps_taken()))
+    }
+
+    /// 2 or 3.
+    #[getter]
+    fn dimensions(&self) -> PyResult<usize> {
+        let state = self.lock()?;
+        Ok(state.world.dimensions())
+    }
+
+    /// The time step `dt` (time units).
+    #[getter]
+    fn dt(&self) -> PyResult<f64> {
+        let state = self.lock()?;
+        Ok(with_world!(&state.world, w => w.config().dt))
+    }
+
+    /// The scene's `name`, or None.
+    #[getter]
+    fn name(&self) -> PyResult<Option<String>> {
+        Ok(self.lock()?.meta.name.clone())
+    }
+
+    /// Where the scene came from: its path as given to `load`, `preset:NAME`, or `<string>`.
+    #[getter]
+    fn origin(&self) -> PyResult<String> {
+        Ok(self.lock()?.meta.origin.clone())
+    }
+
+    /// The run's total steps: the scene's `steps` (what `carom run` runs when given no
+    /// `--steps`), or for a resumed world the total of the run that wrote the checkpoint.
+    /// `carom resume` continues a checkpoint of this world to it.
+    #[getter]
+    fn scene_steps(&self) -> PyResult<u64> {
+        Ok(self.lock()?.meta.settings.steps)
+    }
+
+    fn __len__(&self) -> PyResult<usize> {
+        let state = self.lock()?;
+        Ok(with_world!(&state.world, w => w.len()))
+    }
+
+    fn __repr__(&self) -> String {
+        let state = match self.lock() {
+            Ok(state) => state,
+            Err(_) => return "<carom.World (busy or unusable)>".to_string(),
+        };
+        let dim = state.world.dimensions();
+        let (n, steps, time, dt, broad) = with_world!(&state.world, w => (
+            w.len(),
+            w.steps_taken(),
+            w.time(),
+            w.config().dt,
+            w.broad_phase_name(),
+        ));
+        let name = match &state.meta.name {
+            Some(name) => format!("{name:?} "),
+            None => String::new(),
+        };
+        format!(
+            "<carom.World {name}[{}]: {dim}D, {n} particles, step {steps}, time {time}, \
+             dt {dt}, {broad} broad phase>",
+            state.meta.origin
+        )
+    }
+
+    /// Total kinetic energy `sum m |v|^2 / 2`, summed in id order (mass x length^2 / time^2).
+    fn kinetic_energy(&self) -> PyResult<f64> {
+        let state = self.lock()?;
+        Ok(with_world!(&state.world, w => w.kinetic_energy()))
+    }
+
+    /// Gravitational potential energy `sum -m g . x` (zero at the origin), in id order.
+    fn potential_energy(&self) -> PyResult<f64> {
+        let state = self.lock()?;
+        Ok(with_world!(&state.world, w => w.potential_energy()))
+    }
+
+    /// Total momentum `sum m v`: float64 array of shape (d,), summed in id order
+    /// (mass x length / time).
+    fn momentum<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let state = self.lock()?;
+        Ok(with_world!(&state.world, w => vector(py, w.momentum())))
+    }
+
+    /// The last step's touching pairs: int64 array of shape (M, 2), ids `a < b`, sorted.
+    ///
+    /// These are the pairs the lecture's detection finds overlapping (`distance < r1 + r2`)
+    /// at the start of the step's velocity phase; empty before the first step. Islands asleep
+    /// (at rest, see the README's notes on sleep) are not listed.
+    fn contacts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        let state = self.lock()?;
+        let flat: Vec<i64> = with_world!(&state.world, w => w
+            .contacts()
+            .iter()
+            .flat_map(|&(a, b)| [a as i64, b as i64])
+            .collect());
+        let m = flat.len() / 2;
+        let array = Array2::from_shape_vec((m, 2), flat)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        Ok(array.into_pyarray(py))
+    }
+
+    /// One reading of the observables, as a row of `carom run --observe FILE --every K`.
+    ///
+    /// A dict with `step` (int), `time`, `kinetic_energy`, `potential_energy`, `temperature`
+    /// (granular, `sum m |v - u|^2 / (d N)`, energy units), `collisions` (int: particle-
+    /// particle impacts since the first reading), `pressure` (kinetic plus collisional
+    /// virial, averaged over the interval since the previous reading; NaN without a domain)
+    /// and `max_overlap` (the deepest overlap at this step, a fraction of the smaller radius).
+    ///
+    /// Each call closes the pressure's interval and the first one starts the counts: calling
+    /// it at step 0 and after every `step(K)` gives the CLI's rows, bit for bit.
+    fn observe<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let mut state = self.lock()?;
+        let reading = with_world!(&mut state.world, w => w.observe());
+        observables(py, &reading)
+    }
+
+    /// Replace every particle's velocity (length per time unit).
+    ///
+    /// `velocities`: array-like of shape (N, d), in id order, every value finite; read as
+    /// float64. Raises ValueError naming the problem (shape, or the first particle that is not
+    /// finite) and then changes nothing. Particles given a velocity wake up (see the sleep
+    /// notes in the README), as with the viewer's pushes.
+    fn set_velocities(&self, py: Python<'_>, velocities: &Bound<'_, PyAny>) -> PyResult<()> {
+        let numpy = py.import("numpy")?;
+        let kwargs = PyDict::new(py);
+        kwargs.set_item("dtype", numpy.getattr("float64")?)?;
+        let array = numpy
+            .call_method("asarray", (velocities,), Some(&kwargs))
+            .map_err(|e| {
+                PyValueError::new_err(format!(
+                    "velocities: cannot be read as an array of float64 numbers: {}",
+                    e.value(py)
+                ))
+            })?;
+        let array = array
+            .cast_into::<numpy::PyArrayDyn<f64>>()
+            .map_err(|_| PyValueError::new_err("velocities: not a float64 array"))?;
+        let mut state = self.lock()?;
+        let (n, d) = (
+            with_world!(&state.world, w => w.len()),
+            state.world.dimensions(),
+        );
+        let shape = array.shape().to_vec();
+        if shape != [n, d] {
+            let shown: Vec<String> = shape.iter().map(|s| s.to_string()).collect();
+            let shown = if shown.len() == 1 {
+                format!("({},)", shown[0])
+            } else {
+                format!("({})", shown.join(", "))
+            };
+            return Err(PyValueError::new_err(format!(
+                "velocities: needs shape ({n}, {d}) (one row of {d} components per particle), \
+                 got {shown}"
+            )));
+        }
+        let readonly = array.readonly();
+        let values = readonly.as_array();
+        let rows: Vec<Vec<f64>> = values
+            .outer_iter()
+            .map(|r| r.iter().copied().collect())
+            .collect();
+        if let Some((id, row)) = rows
+            .iter()
+            .enumerate()
+            .find(|(_, r)| r.iter().any(|x| !x.is_finite()))
+        {
+            return Err(PyValueError::new_err(format!(
+                "velocities: must be finite; row {id} (particle {id}) is {row:?}"
+            )));
+        }
+        let result = with_world!(&mut state.world, w => {
+            let mut result = Ok(());
+            for (id, row) in rows.iter().enumerate() {
+                if let Err(e) = w.set_velocity(id, Vector::from_slice(row)) {
+                    result = Err(e);
+                    break;
+                }
+            }
+            result
+        });
+        result.map_err(|e| PyValueError::new_err(format!("velocities: {e}")))
+    }
+
+    /// Write the state as CSV, as `carom run --out PATH` does: `id,x,y,vx,vy,radius,mass`
+    /// (3D: with z and vz), one row per particle in id order, every number in its shortest
+    /// form that reads back to the same float64.
+    ///
+    /// The file is written whole or not at all (a temporary in the same folder, renamed over
+    /// `path`). Raises OSError (FileNotFoundError for a missing folder) if it cannot be.
+    fn write_csv(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        check_output_path(&path)?;
+        let mut guard = self.lock()?;
+        let state: &mut State = &mut guard;
+        let target = path.clone();
+        let world = &mut state.world;
+        py.detach(move || {
+            with_world!(&*world, w => carom_output::write_atomic(&target, |out| {
+                carom_output::write_state_csv(w.particles(), out)
+            }))
+        })
+        .map_err(|e| os_error("cannot write", &e, &path))
+    }
+
+    /// Write a checkpoint, as `carom run --checkpoint PATH` does: the complete state, from
+    /// which `carom.resume(path)` or `carom resume PATH` continues bit for bit.
+    ///
+    /// It keeps the scene's text and origin, and the scene's `steps` as the run's total (what
+    /// `carom resume` without `--steps` continues to). Written whole or not at all; OSError if
+    /// it cannot be.
+    fn checkpoint(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        check_output_path(&path)?;
+        let mut guard = self.lock()?;
+        let state: &mut State = &mut guard;
+        let cp = with_world!(&state.world, w => checkpoint_of(w, &state.meta))
+            .map_err(PyRuntimeError::new_err)?;
+        let target = path.clone();
+        py.detach(move || carom_output::write_atomic(&target, |out| cp.write_to(out)))
+            .map_err(|e| os_error("cannot write checkpoint", &e, &path))
+    }
+}
+
+/// Load the scene file at `path` (str or os.PathLike) and build its world, as `carom run PATH`
+/// does.
+///
+/// Raises SceneError (a ValueError) for a scene that is not valid, with the CLI's message
+/// (file, field, what is wrong), and OSError if the file cannot be read.
+#[pyfunction]
+fn load(py: Python<'_>, path: PathBuf) -> PyResult<World> {
+    let origin = path.display().to_string();
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| os_error("cannot read scene file", &e, &path))?;
+    build(py, text, origin)
+}
+
+/// Build the world of a scene given as TOML text (the format of `docs/scene-format.md`).
+///
+/// Messages name the scene `<string>`. Raises SceneError for a scene that is not valid.
+#[pyfunction]
+fn from_toml(py: Python<'_>, text: String) -> PyResult<World> {
+    build(py, text, STRING_ORIGIN.to_string())
+}
+
+/// Build the world of a built-in scene, as `carom run --preset NAME` does (`presets()` lists
+/// them; they are the files in the repository's `scenes/` folder).
+///
+/// Raises ValueError for a name that is not a preset.
+#[pyfunction]
+fn preset(py: Python<'_>, name: &str) -> PyResult<World> {
+    let text = carom_scene::preset(name).ok_or_else(|| {
+        let names: Vec<_> = carom_scene::preset_names().collect();
+        PyValueError::new_err(format!(
+            "no built-in scene `{name}`; there are: {}",
+            names.join(", ")
+        ))
+    })?;
+    build(py, text.to_string(), format!("preset:{name}"))
+}
+
+/// The names of the built-in scenes, in order (the first is `carom run`'s default).
+#[pyfunction]
+fn presets(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
+    PyList::new(py, carom_scene::preset_names())
+}
+
+/// Continue from a checkpoint written by `World.checkpoint` or `carom run --checkpoint`, as
+/// `carom resume PATH` does: stepping the world on gives the very bits of the run that was never
+/// stopped.
+///
+/// Raises OSError if the file cannot be read, ValueError for a damaged or foreign file, and
+/// SceneError if the scene inside it is no longer valid.
+#[pyfunction]
+fn resume(py: Python<'_>, checkpoint_path: PathBuf) -> PyResult<World> {
+    let shown = checkpoint_path.display().to_string();
+    let bytes = std::fs::read(&checkpoint_path)
+        .map_err(|e| os_error("cannot read checkpoint", &e, &checkpoint_path))?;
+    let cp = Checkpoint::read_from(&bytes)
+        .map_err(|e| PyValueError::new_err(format!("{shown}: {e}")))?;
+    let settings: Settings = serde_json::from_str(&cp.settings_json)
+        .map_err(|e| PyValueError::new_err(format!("{shown}: damaged run settings: {e}")))?;
+    let scene = carom_scene::parse(&cp.scene_toml, &cp.origin)
+        .map_err(|e| scene_error(py, format!("{shown}: {e}"), &e.origin, e.field.as_deref()))?;
+    let (name, world) = match scene {
+        carom_scene::AnyScene::Two(s) => (
+            s.name.clone(),
+            resumed(s, &cp, &settings).map(AnyWorld::Two),
+        ),
+        carom_scene::AnyScene::Three(s) => (
+            s.name.clone(),
+            resumed(s, &cp, &settings).map(AnyWorld::Three),
+        ),
+    };
+    let world = world.map_err(|e| PyValueError::new_err(format!("{shown}: {e}")))?;
+    Ok(World::new(
+        world,
+        Meta {
+            scene_toml: cp.scene_toml,
+            origin: cp.origin,
+            name,
+            settings,
+        },
+    ))
+}
+
+/// carom: a particle collision engine (the lecture "Collision Detection and Response", in 2D
+/// and 3D), from Python.
+///
+/// Build a World from a scene (`load`, `from_toml`, `preset`) or a checkpoint (`resume`), step
+/// it (`World.step`, with the GIL released) and read its state as numpy arrays. A world
+/// stepped here gives the very bits `carom run` gives for the same scene and step count.
+///
+///     import carom
+///     world = carom.preset("lecture_100_k05")
+///     world.step(1000)
+///     world.positions          # (100, 2) float64, in id order
+///
+/// The rayon thread pool takes its size from RAYON_NUM_THREADS (default: every core), as the
+/// CLI does; the results do not depend on it.
+#[pymodule]
+fn carom(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("SceneError", m.py().get_type::<SceneError>())?;
+    m.add_class::<World>()?;
+    m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add_function(wrap_pyfunction!(from_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(preset, m)?)?;
+    m.add_function(wrap_pyfunction!(presets, m)?)?;
+    m.add_function(wrap_pyfunction!(resume, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,151 @@
+"""Shapes, dtypes, values and documentation of the API."""
+
+import pydoc
+
+import numpy as np
+import pytest
+
+import carom
+from conftest import SMALL_PILE
+
+
+@pytest.fixture(params=["lecture_100_k05", "box_3d"])
+def world(request):
+    w = carom.preset(request.param)
+    w.step(20)
+    return w
+
+
+def test_arrays_have_the_documented_shapes_and_dtypes(world):
+    n, d = len(world), world.dimensions
+    assert d in (2, 3) and n > 0
+    for name in ("positions", "velocities"):
+        a = getattr(world, name)
+        assert isinstance(a, np.ndarray) and a.dtype == np.float64 and a.shape == (n, d), name
+    for name in ("radii", "masses"):
+        a = getattr(world, name)
+        assert a.dtype == np.float64 and a.shape == (n,), name
+    assert world.momentum().dtype == np.float64 and world.momentum().shape == (d,)
+    c = world.contacts()
+    assert c.dtype == np.int64 and c.ndim == 2 and c.shape[1] == 2
+    assert isinstance(world.kinetic_energy(), float)
+    assert isinstance(world.potential_energy(), float)
+    assert isinstance(world.time, float) and isinstance(world.steps, int)
+
+
+def test_arrays_are_copies(world):
+    x = world.positions
+    x[:] = 0.0
+    assert not np.all(world.positions == 0.0)
+
+
+def test_time_steps_and_sums(world):
+    assert world.steps == 20
+    assert world.time == 20 * world.dt
+    m, v = world.masses, world.velocities
+    assert world.kinetic_energy() == pytest.approx(0.5 * np.sum(m * np.sum(v * v, axis=1)), rel=1e-12)
+    np.testing.assert_allclose(world.momentum(), (m[:, None] * v).sum(axis=0), rtol=1e-9, atol=1e-9)
+    world.step(0)
+    assert world.steps == 20
+
+
+def test_contacts_are_touching_pairs_in_id_order():
+    world = carom.from_toml(SMALL_PILE)
+    world.step(300)
+    c = world.contacts()
+    assert len(c) > 0
+    assert np.all(c[:, 0] < c[:, 1])
+    assert np.all(np.diff(c[:, 0] * len(world) + c[:, 1]) > 0), "sorted, no repeats"
+    x, r = world.positions, world.radii
+    gap = np.linalg.norm(x[c[:, 0]] - x[c[:, 1]], axis=1) - r[c[:, 0]] - r[c[:, 1]]
+    assert np.all(gap < 0.05 * r[c[:, 0]]), "touching (within a step's motion)"
+    assert carom.from_toml(SMALL_PILE).contacts().shape == (0, 2)
+
+
+def test_observe_has_what_carom_run_observe_writes(world):
+    o = world.observe()
+    assert set(o) == {
+        "step", "time", "kinetic_energy", "potential_energy",
+        "temperature", "collisions", "pressure", "max_overlap",
+    }
+    assert o["step"] == 20 and o["time"] == world.time
+    assert o["kinetic_energy"] == world.kinetic_energy()
+    assert o["temperature"] > 0 and o["pressure"] > 0 and o["max_overlap"] >= 0
+    world.step(30)
+    assert world.observe()["collisions"] >= o["collisions"]
+
+
+def test_pressure_without_a_domain_is_nan():
+    world = carom.preset("lecture_example_2")
+    assert np.isnan(world.observe()["pressure"])
+
+
+def test_presets_and_names():
+    names = carom.presets()
+    assert names[0] == "lecture_100_k05"
+    assert {"lecture_100_k05", "lecture_5000_grid100", "box_3d"} <= set(names)
+    for name in names:
+        world = carom.preset(name)
+        assert world.origin == f"preset:{name}" and world.steps == 0 and len(world) > 0
+    assert carom.preset("lecture_5000_grid100").name == "Lecture demo: 5000 particles, hash grid 100x100"
+
+
+def test_from_toml():
+    world = carom.from_toml(
+        """
+        dimensions = 2
+        dt = 0.01
+        [[particles]]
+        position = [0.0, 0.0]
+        velocity = [1.0, 0.0]
+        radius = 1.0
+        mass = 2.0
+        [[particles]]
+        position = [3.0, 0.0]
+        velocity = [-1.0, 0.0]
+        radius = 1.0
+        mass = 1.0
+        """
+    )
+    assert world.origin == "<string>" and world.name is None and len(world) == 2
+    p0 = world.momentum()
+    world.step(100)
+    np.testing.assert_allclose(world.momentum(), p0, atol=1e-12)
+    assert world.positions[0, 0] < world.positions[1, 0]
+
+
+def test_repr_says_what_the_world_is():
+    world = carom.preset("lecture_100_k05")
+    world.step(10)
+    text = repr(world)
+    for part in ("carom.World", "preset:lecture_100_k05", "2D", "100 particles", "step 10", "grid"):
+        assert part in text, (part, text)
+
+
+def test_help_reads_well():
+    text = pydoc.render_doc(carom.World, renderer=pydoc.plaintext)
+    for part in (
+        "step(self, /, n=1)",
+        "GIL",
+        "KeyboardInterrupt",
+        "positions",
+        "(N, d)",
+        "set_velocities",
+        "write_csv",
+        "checkpoint",
+        "observe",
+    ):
+        assert part in text, part
+    assert carom.__doc__ and "carom run" in carom.__doc__
+    for f in (carom.load, carom.from_toml, carom.preset, carom.presets, carom.resume):
+        assert f.__doc__, f
+
+
+def test_stubs_ship_with_the_module():
+    import importlib.resources as resources
+
+    files = {p.name for p in resources.files("carom").iterdir()}
+    assert "py.typed" in files and "__init__.pyi" in files
+    stub = resources.files("carom").joinpath("__init__.pyi").read_text()
+    for name in ("class World", "def step", "def load", "class SceneError", "def resume"):
+        assert name in stub, name

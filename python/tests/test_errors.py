@@ -1,0 +1,181 @@
+"""Every error: one clear message naming the problem, the right exception, nothing written."""
+
+import os
+
+import numpy as np
+import pytest
+
+import carom
+from conftest import assert_same_state
+
+BAD_FIELD = """
+dimensions = 2
+dt = 0.01
+[[particles]]
+position = [0.0, 0.0]
+velocity = [0.0, 0.0]
+radius = -1.0
+mass = 1.0
+"""
+
+
+def test_scene_error_is_a_value_error():
+    assert issubclass(carom.SceneError, ValueError)
+
+
+def test_bad_field_gives_the_cli_message(cli, tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text(BAD_FIELD)
+    with pytest.raises(carom.SceneError) as caught:
+        carom.load(path)
+    done = cli("run", path, check=False)
+    assert done.returncode == 2
+    assert done.stderr.strip() == f"carom: error: {caught.value}"
+    assert str(path) in str(caught.value) and "particles[0].radius" in str(caught.value)
+    assert caught.value.origin == str(path)
+    assert caught.value.field == "particles[0].radius"
+
+
+def test_broken_toml_gives_the_cli_message(cli, tmp_path):
+    path = tmp_path / "broken.toml"
+    path.write_text("dimensions = 2\ndt = [\n")
+    with pytest.raises(carom.SceneError) as caught:
+        carom.load(path)
+    done = cli("run", path, check=False)
+    assert done.stderr.strip() == f"carom: error: {caught.value}"
+    assert caught.value.field is None
+
+
+@pytest.mark.parametrize(
+    "text,field",
+    [
+        ("dimensions = 4\ndt = 0.1", "dimensions"),
+        ("dimensions = 2\ndt = 0.0", "dt"),
+        ("dimensions = 2\ndt = 0.1\nrestitution = 2.0", "restitution"),
+        ("dimensions = 3\ndt = 0.1\ngravity = [0.0, -9.8]", "gravity"),
+    ],
+)
+def test_from_toml_names_the_field(text, field):
+    with pytest.raises(carom.SceneError) as caught:
+        carom.from_toml(text)
+    assert str(caught.value).startswith(f"<string>: field `{field}`: ")
+    assert caught.value.field == field and caught.value.origin == "<string>"
+
+
+def test_unknown_preset():
+    with pytest.raises(ValueError, match="no built-in scene `nope`; there are: lecture_100_k05"):
+        carom.preset("nope")
+
+
+def test_missing_scene_file(tmp_path):
+    with pytest.raises(FileNotFoundError) as caught:
+        carom.load(tmp_path / "missing.toml")
+    assert "cannot read scene file" in str(caught.value)
+    assert caught.value.filename == str(tmp_path / "missing.toml")
+
+
+@pytest.fixture
+def world():
+    w = carom.preset("lecture_100_k05")
+    w.step(5)
+    return w
+
+
+@pytest.mark.parametrize(
+    "value,message",
+    [
+        (np.zeros((100, 3)), r"needs shape \(100, 2\) .*got \(100, 3\)"),
+        (np.zeros((99, 2)), r"needs shape \(100, 2\) .*got \(99, 2\)"),
+        (np.zeros(200), r"needs shape \(100, 2\) .*got \(200,\)"),
+        (np.zeros((100, 2, 1)), r"needs shape \(100, 2\) .*got \(100, 2, 1\)"),
+        (5.0, r"needs shape \(100, 2\) .*got \(\)"),
+        ([["a", "b"]] * 100, r"cannot be read as an array of float64"),
+    ],
+)
+def test_set_velocities_refuses_wrong_shapes(world, value, message):
+    before = world.velocities
+    with pytest.raises(ValueError, match="^velocities: " + message):
+        world.set_velocities(value)
+    np.testing.assert_array_equal(world.velocities, before)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_set_velocities_refuses_non_finite_values(world, bad):
+    before = world.velocities
+    v = before.copy()
+    v[42, 1] = bad
+    with pytest.raises(ValueError, match=r"^velocities: must be finite; row 42 \(particle 42\)"):
+        world.set_velocities(v)
+    np.testing.assert_array_equal(world.velocities, before)
+
+
+def test_step_refuses_negative_counts(world):
+    with pytest.raises(ValueError, match="n: the number of steps must be >= 0, got -1"):
+        world.step(-1)
+    with pytest.raises(TypeError):
+        world.step(1.5)
+    assert world.steps == 5
+
+
+def only(path):
+    return sorted(p.name for p in path.iterdir())
+
+
+def test_writes_into_a_missing_folder(world, tmp_path):
+    for write in (world.write_csv, world.checkpoint):
+        with pytest.raises(FileNotFoundError, match="folder .* does not exist"):
+            write(tmp_path / "missing" / "out")
+    assert only(tmp_path) == []
+
+
+def test_writes_over_a_folder(world, tmp_path):
+    (tmp_path / "dir").mkdir()
+    for write in (world.write_csv, world.checkpoint):
+        with pytest.raises(IsADirectoryError, match="is a folder"):
+            write(tmp_path / "dir")
+    assert only(tmp_path) == ["dir"] and only(tmp_path / "dir") == []
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+def test_writes_into_a_read_only_folder(world, tmp_path):
+    os.chmod(tmp_path, 0o500)
+    try:
+        with pytest.raises(PermissionError):
+            world.write_csv(tmp_path / "out.csv")
+    finally:
+        os.chmod(tmp_path, 0o700)
+
+
+def test_resume_of_a_missing_checkpoint(tmp_path):
+    with pytest.raises(FileNotFoundError, match="cannot read checkpoint"):
+        carom.resume(tmp_path / "missing.ckpt")
+
+
+def test_resume_of_a_foreign_file(tmp_path):
+    path = tmp_path / "scene.toml"
+    path.write_text(BAD_FIELD)
+    with pytest.raises(ValueError, match=f"^{path}: ") as caught:
+        carom.resume(path)
+    assert not isinstance(caught.value, carom.SceneError)
+
+
+def test_resume_of_a_damaged_checkpoint(world, tmp_path, cli):
+    path = tmp_path / "run.ckpt"
+    world.checkpoint(path)
+    data = bytearray(path.read_bytes())
+    for damaged in (data[: len(data) // 2], data[:-1] + bytes([data[-1] ^ 1])):
+        path.write_bytes(bytes(damaged))
+        with pytest.raises(ValueError) as caught:
+            carom.resume(path)
+        done = cli("resume", path, check=False)
+        assert done.returncode == 2
+        assert done.stderr.strip() == f"carom: error: {caught.value}"
+
+
+def test_busy_world_and_unusable_calls_do_not_change_state(world):
+    twin = carom.preset("lecture_100_k05")
+    twin.step(5)
+    for bad in (lambda: world.step(-3), lambda: world.set_velocities(np.zeros(3))):
+        with pytest.raises(ValueError):
+            bad()
+    assert_same_state(world, twin)
