@@ -564,6 +564,7 @@ fn phase_times_count_steps_and_change_no_bits() {
     assert_eq!(position_bits(&a), position_bits(&b));
     let (ta, tb) = (a.phase_times(), b.phase_times());
     assert_eq!((ta.steps, tb.steps), (20, 50));
-    assert!(tb.total() >= ta.total() && ta.velocity > std::time::Duration::ZERO);
-    assert_eq!(ta.phases().len(), 7);
+    // (durations themselves are the machine's business: no assertion on how long)
+    let total: std::time::Duration = ta.phases().iter().map(|(_, t)| *t).sum();
+    assert_eq!(total, ta.total());
 }
