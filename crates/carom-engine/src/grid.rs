@@ -18,6 +18,7 @@
 //! radii (its radius 1 and 3 demo) widen the search instead of missing contacts.
 
 use crate::broadphase::{collect_pairs, BroadPhase, Pair, PARALLEL_MIN};
+use crate::bucket::counting_sort;
 use crate::domain::Aabb;
 use crate::error::EngineError;
 use crate::hash::SpatialHash;
@@ -244,25 +245,13 @@ impl<V: Vector> Grid<V> {
         } else {
             self.cell_of.iter_mut().zip(positions.iter()).for_each(bin);
         }
-        let total = layout.total();
-        self.cell_start.clear();
-        self.cell_start.resize(total + 1, 0);
-        for &c in &self.cell_of {
-            self.cell_start[c as usize + 1] += 1;
-        }
-        for c in 0..total {
-            self.cell_start[c + 1] += self.cell_start[c];
-        }
-        // Scatter with `cell_start[c]` as the cursor; afterwards it holds the end of cell c,
-        // which is the start of cell c + 1, so shifting by one restores the starts.
-        self.ids.resize(n, 0);
-        for (i, &c) in self.cell_of.iter().enumerate() {
-            let slot = &mut self.cell_start[c as usize];
-            self.ids[*slot as usize] = i as u32;
-            *slot += 1;
-        }
-        self.cell_start.copy_within(0..total, 1);
-        self.cell_start[0] = 0;
+        counting_sort(
+            &self.cell_of,
+            layout.total(),
+            0..n as u32,
+            &mut self.cell_start,
+            &mut self.ids,
+        );
     }
 }
 

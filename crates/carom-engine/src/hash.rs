@@ -10,6 +10,7 @@
 //! distance test throws out; a bucket reached through two cells is searched once.
 
 use crate::broadphase::{collect_pairs, BroadPhase, Pair, PARALLEL_SEARCH_MIN};
+use crate::bucket::counting_sort;
 use crate::grid::widened_reach;
 use crate::response::is_overlapping;
 use crate::vector::Vector;
@@ -109,22 +110,13 @@ impl<V: Vector> BroadPhase<V> for SpatialHash {
                 .for_each(bin);
         }
         let table = layout.table_size;
-        self.bucket_start.clear();
-        self.bucket_start.resize(table + 1, 0);
-        for &b in &self.bucket_of {
-            self.bucket_start[b as usize + 1] += 1;
-        }
-        for b in 0..table {
-            self.bucket_start[b + 1] += self.bucket_start[b];
-        }
-        self.ids.resize(n, 0);
-        for (i, &b) in self.bucket_of.iter().enumerate() {
-            let slot = &mut self.bucket_start[b as usize];
-            self.ids[*slot as usize] = i as u32;
-            *slot += 1;
-        }
-        self.bucket_start.copy_within(0..table, 1);
-        self.bucket_start[0] = 0;
+        counting_sort(
+            &self.bucket_of,
+            table,
+            0..n as u32,
+            &mut self.bucket_start,
+            &mut self.ids,
+        );
 
         let (starts, ids) = (&self.bucket_start, &self.ids);
         collect_pairs(n, &mut self.buffers, pairs, |i, out| {

@@ -21,6 +21,7 @@
 
 use crate::broadphase::{keep_headroom, BroadPhase, BroadPhaseKind, Pair, PARALLEL_MIN};
 use crate::brute::BruteForce;
+use crate::bucket::counting_sort;
 use crate::diagnostics::{self, StepStats};
 use crate::domain::Aabb;
 use crate::error::EngineError;
@@ -39,8 +40,10 @@ use crate::solver::{
 use crate::step::{self, Phases};
 use crate::timing::PhaseTimes;
 use crate::vector::Vector;
+use fnv::FnvHasher;
 use rayon::prelude::*;
 use std::cell::OnceCell;
+use std::hash::Hasher;
 use std::time::Instant;
 
 /// Default cap on velocity sweeps per step.
@@ -619,23 +622,16 @@ impl Sorter {
                 .zip(store.position.iter())
                 .for_each(key);
         }
-        let cells = layout.total();
-        self.starts.clear();
-        self.starts.resize(cells + 1, 0);
-        for &k in &self.keys {
-            self.starts[k as usize + 1] += 1;
-        }
-        for c in 0..cells {
-            self.starts[c + 1] += self.starts[c];
-        }
         // Ties (one cell) go by id, so the new order is a function of the state alone, not of
         // the order before: a world rebuilt from the same state sorts the same way.
-        self.order.resize(n, 0);
-        for &i in slots.iter() {
-            let slot = &mut self.starts[self.keys[i as usize] as usize];
-            self.order[*slot as usize] = i;
-            *slot += 1;
-        }
+        let items = slots.iter().copied();
+        counting_sort(
+            &self.keys,
+            layout.total(),
+            items,
+            &mut self.starts,
+            &mut self.order,
+        );
     }
 
     /// Sorts the arrays by grid cell, ties by id.
@@ -1365,21 +1361,15 @@ impl<V: Vector> World<V> {
     /// A 64-bit FNV-1a hash of every position and velocity bit pattern, in id order: equal
     /// hashes mean (with overwhelming likelihood) bit-identical states.
     pub fn state_hash(&self) -> u64 {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |x: f64| {
-            for b in x.to_bits().to_le_bytes() {
-                h ^= b as u64;
-                h = h.wrapping_mul(0x0000_0100_0000_01b3);
-            }
-        };
+        let mut h = FnvHasher::default();
         for id in 0..self.store.len() {
             let s = self.slots[id] as usize;
             let (x, v) = (self.store.position[s], self.store.velocity[s]);
             for a in 0..V::DIM {
-                eat(x.get(a));
-                eat(v.get(a));
+                h.write(&x.get(a).to_bits().to_le_bytes());
+                h.write(&v.get(a).to_bits().to_le_bytes());
             }
         }
-        h
+        h.finish()
     }
 }

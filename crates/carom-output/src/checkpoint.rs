@@ -158,14 +158,14 @@ impl<W: Write> Write for Hashing<W> {
     }
 }
 
+/// FNV-1a 64's offset basis: the hash of no bytes.
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
 
-fn fnv(mut h: u64, bytes: &[u8]) -> u64 {
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
+/// FNV-1a 64 of `bytes`, continuing from the hash `h` of the bytes before them.
+fn fnv(h: u64, bytes: &[u8]) -> u64 {
+    let mut hasher = fnv::FnvHasher::with_key(h);
+    std::hash::Hasher::write(&mut hasher, bytes);
+    std::hash::Hasher::finish(&hasher)
 }
 
 impl Checkpoint {
