@@ -43,7 +43,8 @@ const CHUNK: Duration = Duration::from_millis(50);
 const STRING_ORIGIN: &str = "<string>";
 
 /// Run settings a checkpoint carries besides the scene text: the JSON that `carom run`
-/// writes (`crates/carom-cli/src/session.rs`, `Settings`), field for field.
+/// writes (`crates/carom-cli/src/driver/step.rs`, `Settings`), field for field: a copy (see
+/// the CHANGELOG: one shared definition is still to do).
 #[derive(serde::Serialize, serde::Deserialize, Debug, Clone, Default)]
 struct Settings {
     /// Total steps of the run (`carom resume` continues to this many).
