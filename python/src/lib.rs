@@ -11,7 +11,7 @@
 //! moment to let Python run its signal handlers, so Ctrl-C stops the loop between two steps.
 
 use carom_engine::glam::{DVec2, DVec3};
-use carom_engine::{BroadPhaseKind, ContactImpulses, Observables, Particles, Vector};
+use carom_engine::{BroadPhaseKind, Observables, Particles, Vector};
 use carom_output::checkpoint::Checkpoint;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
@@ -289,32 +289,13 @@ fn checkpoint_of<V: Vector>(
     world: &carom_engine::World<V>,
     meta: &Meta,
 ) -> Result<Checkpoint, String> {
-    let n = world.len();
-    let impulses = world.contact_impulses();
-    let mut cp = Checkpoint {
-        dimensions: V::DIM as u32,
-        steps_taken: world.steps_taken(),
-        scene_toml: meta.scene_toml.clone(),
-        origin: meta.origin.clone(),
-        settings_json: serde_json::to_string(&meta.settings).map_err(|e| e.to_string())?,
-        storage_order: world.storage_order().to_vec(),
-        positions: Vec::with_capacity(n * V::DIM),
-        velocities: Vec::with_capacity(n * V::DIM),
-        radii: Vec::with_capacity(n),
-        masses: Vec::with_capacity(n),
-        pair_impulses: impulses.pairs,
-        plane_impulses: impulses.planes,
-        rest: impulses.rest,
-        tally: world.tally(),
-    };
-    for id in 0..n {
-        let (x, v, r, m) = world.particle(id);
-        cp.positions.extend((0..V::DIM).map(|a| x.get(a)));
-        cp.velocities.extend((0..V::DIM).map(|a| v.get(a)));
-        cp.radii.push(r);
-        cp.masses.push(m);
-    }
-    Ok(cp)
+    let settings_json = serde_json::to_string(&meta.settings).map_err(|e| e.to_string())?;
+    Ok(Checkpoint::of_world(
+        world,
+        meta.scene_toml.clone(),
+        meta.origin.clone(),
+        settings_json,
+    ))
 }
 
 /// Applies a checkpoint's `--broadphase` and `--cells` overrides to its scene, as
@@ -374,11 +355,7 @@ fn resumed<V: Vector>(
         .into_resumed_world(
             cp.steps_taken,
             cp.storage_order.clone(),
-            ContactImpulses {
-                pairs: cp.pair_impulses.clone(),
-                planes: cp.plane_impulses.clone(),
-                rest: cp.rest.clone(),
-            },
+            cp.contact_impulses(),
             cp.tally,
         )
         .map_err(|e| e.to_string())

@@ -8,7 +8,7 @@ use crate::input::{
     apply_overrides, check_distinct, check_output_path, check_ranks, check_steps, set_threads,
 };
 use crate::launch::run_world;
-use carom_engine::{ContactImpulses, Vector};
+use carom_engine::Vector;
 use carom_output::checkpoint::Checkpoint;
 use std::path::{Path, PathBuf};
 
@@ -146,11 +146,7 @@ fn resume_scene<V: Vector>(
             .into_resumed_world(
                 cp.steps_taken,
                 cp.storage_order.clone(),
-                ContactImpulses {
-                    pairs: cp.pair_impulses.clone(),
-                    planes: cp.plane_impulses.clone(),
-                    rest: cp.rest.clone(),
-                },
+                cp.contact_impulses(),
                 cp.tally,
             )
             .map_err(|e| Failure::input(format!("{shown}: {e}")))

@@ -29,7 +29,7 @@
 //! checksum, so a damaged or foreign file is refused with a clear message and never makes the
 //! reader allocate more than the file holds.
 
-use carom_engine::Tally;
+use carom_engine::{ContactImpulses, Tally, Vector, World};
 use std::io::{self, Write};
 
 /// Bumped whenever the layout or the meaning of a field changes.
@@ -169,6 +169,52 @@ fn fnv(h: u64, bytes: &[u8]) -> u64 {
 }
 
 impl Checkpoint {
+    /// The complete state of `world` (particles in id order, storage order, remembered
+    /// impulses, observable sums) with the scene text, its origin and the run's settings as
+    /// JSON: what `carom run` and the Python module both write.
+    pub fn of_world<V: Vector>(
+        world: &World<V>,
+        scene_toml: String,
+        origin: String,
+        settings_json: String,
+    ) -> Self {
+        let n = world.len();
+        let impulses = world.contact_impulses();
+        let mut cp = Checkpoint {
+            dimensions: V::DIM as u32,
+            steps_taken: world.steps_taken(),
+            scene_toml,
+            origin,
+            settings_json,
+            storage_order: world.storage_order().to_vec(),
+            positions: Vec::with_capacity(n * V::DIM),
+            velocities: Vec::with_capacity(n * V::DIM),
+            radii: Vec::with_capacity(n),
+            masses: Vec::with_capacity(n),
+            pair_impulses: impulses.pairs,
+            plane_impulses: impulses.planes,
+            rest: impulses.rest,
+            tally: world.tally(),
+        };
+        for id in 0..n {
+            let (x, v, r, m) = world.particle(id);
+            cp.positions.extend((0..V::DIM).map(|a| x.get(a)));
+            cp.velocities.extend((0..V::DIM).map(|a| v.get(a)));
+            cp.radii.push(r);
+            cp.masses.push(m);
+        }
+        cp
+    }
+
+    /// The remembered impulses, for [`World`]'s resumed builder.
+    pub fn contact_impulses(&self) -> ContactImpulses {
+        ContactImpulses {
+            pairs: self.pair_impulses.clone(),
+            planes: self.plane_impulses.clone(),
+            rest: self.rest.clone(),
+        }
+    }
+
     /// Writes the checkpoint.
     pub fn write_to(&self, out: &mut dyn Write) -> io::Result<()> {
         let mut w = Hashing {

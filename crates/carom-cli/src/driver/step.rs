@@ -300,34 +300,14 @@ pub fn save_checkpoint<V: Vector>(
     world: &World<V>,
     outputs: &Outputs,
 ) -> Result<(), Failure> {
-    let n = world.len();
-    let mut cp = Checkpoint {
-        dimensions: V::DIM as u32,
-        steps_taken: world.steps_taken(),
-        scene_toml: outputs.scene_toml.clone(),
-        origin: outputs.origin.clone(),
-        settings_json: serde_json::to_string(&outputs.settings)
-            .map_err(|e| Failure::runtime(e.to_string()))?,
-        storage_order: world.storage_order().to_vec(),
-        positions: Vec::with_capacity(n * V::DIM),
-        velocities: Vec::with_capacity(n * V::DIM),
-        radii: Vec::with_capacity(n),
-        masses: Vec::with_capacity(n),
-        pair_impulses: Vec::new(),
-        plane_impulses: Vec::new(),
-        rest: Vec::new(),
-        tally: world.tally(),
-    };
-    let impulses = world.contact_impulses();
-    (cp.pair_impulses, cp.plane_impulses, cp.rest) =
-        (impulses.pairs, impulses.planes, impulses.rest);
-    for id in 0..n {
-        let (x, v, r, m) = world.particle(id);
-        cp.positions.extend((0..V::DIM).map(|a| x.get(a)));
-        cp.velocities.extend((0..V::DIM).map(|a| v.get(a)));
-        cp.radii.push(r);
-        cp.masses.push(m);
-    }
+    let settings_json =
+        serde_json::to_string(&outputs.settings).map_err(|e| Failure::runtime(e.to_string()))?;
+    let cp = Checkpoint::of_world(
+        world,
+        outputs.scene_toml.clone(),
+        outputs.origin.clone(),
+        settings_json,
+    );
     write_whole(path, |w| cp.write_to(w))
         .map_err(|e| Failure::runtime(format!("cannot write checkpoint {}: {e}", path.display())))
 }
