@@ -127,7 +127,7 @@ fn zero_ranks_is_refused() {
 const SLEEPY: &str = r#"
 dimensions = 2
 dt = 0.016666666666666666
-steps = 520
+steps = 600
 gravity = [0.0, -9.81]
 restitution = 0.5
 [solver]
@@ -155,15 +155,15 @@ fn a_sleeping_scene_splits_into_the_same_bytes() {
     std::fs::write(&path, SLEEPY).unwrap();
     let path = path.to_str().unwrap();
     let one = tempfile::tempdir().unwrap();
-    // (the pile falls asleep whole at step 451; the last checkpoint is at 490)
-    let (single, summary) = run_into(one.path(), path, "520", &[]);
+    // (the pile falls asleep whole at step 555; the last checkpoint is at 560)
+    let (single, summary) = run_into(one.path(), path, "600", &[]);
     assert!(
         summary.contains("all 2500 particles asleep since step"),
         "{summary}"
     );
     for r in ["2", "3"] {
         let split_dir = tempfile::tempdir().unwrap();
-        let (split, summary) = run_into(split_dir.path(), path, "520", &["--ranks", r]);
+        let (split, summary) = run_into(split_dir.path(), path, "600", &["--ranks", r]);
         assert!(
             summary.contains("all 2500 particles asleep since step"),
             "{summary}"

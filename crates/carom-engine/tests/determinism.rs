@@ -297,7 +297,8 @@ fn golden_scene<V: Vector>() -> World<V> {
 /// commit. An unexplained change here means results are no longer reproducible.
 #[test]
 fn golden_hash_2d() {
-    const GOLDEN: u64 = 0xfb5e_b497_fa1c_e48b;
+    // (changed with the shock sweep: this run hits the relax cap under gravity)
+    const GOLDEN: u64 = 0x1b39_27ce_1557_6ce7;
     let mut w = golden_scene::<DVec2>();
     for _ in 0..200 {
         w.step();

@@ -88,9 +88,9 @@ impl<V: Vector> Summary<'_, V> {
             println!(
                 "solver      the velocity sweeps stopped at their cap ({}) in {} of \
                  {steps} steps: contacts still approaching then were met again the next step \
-                 (momentum stays exact, the position phase bounds the overlap; a dense gas at \
-                 low k collapses inelastically, a deep pile needs more sweeps: [solver] \
-                 velocity_iterations)",
+                 (under gravity a last sweep up the pile first holds each particle on the ones \
+                 below it; the position phase bounds the overlap; a dense gas at low k collapses \
+                 inelastically, a deep pile needs more sweeps: [solver] velocity_iterations)",
                 world.config().velocity_iterations,
                 d.capped_steps
             );

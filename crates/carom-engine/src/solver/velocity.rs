@@ -1,7 +1,7 @@
 //! The velocity phase and the move: gravity, impacts and resting impulses swept in substeps,
 //! then `x += v dt`.
 
-use super::{bounces::*, rows::*, rules::*, settings::*};
+use super::{bounces::*, rows::*, rules::*, settings::*, shock::shock};
 use crate::schedule::{Change, Exchange};
 use crate::vector::Vector;
 use rayon::prelude::*;
@@ -21,8 +21,9 @@ use std::time::Instant;
 /// 2. `substeps` times, with `h = dt / substeps`: `v += g h`; the accumulated impulses are
 ///    applied (from the last step at first: warm starting); *relax* sweeps of accumulated
 ///    impulses until no contact approaches (a gap may close, no more); `x += v h`; the
-///    contacts' geometry is brought up to date. What the last relax leaves is remembered for
-///    the next step;
+///    contacts' geometry is brought up to date. When the last substep's relax hits its cap,
+///    a shock sweep follows (see [`shock`]). What the last relax leaves is remembered for the
+///    next step;
 /// 3. *restitution* (when there were impacts): sweeps until every impact separates at its
 ///    `k s` and no other contact approaches. An isolated impact so gets exactly the lecture's
 ///    formula, and one against a pile at rest bounces off it as off a wall.
@@ -63,6 +64,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     );
     let parallel = c.blocks.parallel();
     let mut solve = VelocitySolve::default();
+    let mut relaxed = 0;
     for pass in (0..substeps)
         .map(|_| Pass::Relax)
         .chain([Pass::Restitution])
@@ -103,9 +105,17 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
             !planes_in_move,
             &mut solve,
         );
+        // (once a step, after the last substep's relax: a shock sweep in every substep stirs a
+        // pile, which then takes longer to come to rest)
+        let last_relax = pass == Pass::Relax && relaxed + 1 == substeps;
+        if capped && last_relax && !settings.lecture_pairs() && gravity != V::ZERO {
+            let up = gravity * (-1.0 / gravity.length_squared().sqrt());
+            shock(exchange, velocity, c, up, !planes_in_move);
+        }
         solve.iterations += sweeps;
         solve.capped |= capped;
         if pass == Pass::Relax {
+            relaxed += 1;
             let clock = Instant::now();
             advance_positions(parallel, &mut position[..own], &velocity[..own], asleep, h);
             if substeps > 1 {
