@@ -25,8 +25,9 @@
 //! discs tall would sink for hundreds of steps before its impulses, remembered from step to
 //! step, caught up. When the relax sweeps of a step under gravity hit their cap, one more
 //! sweep follows in which a resting contact holds its lower particle fixed and stops the upper
-//! one approaching it; the sweep order, sorted along space, runs up a stack from its floor, so
-//! support reaches the top in that one sweep. The lower particle does not feel the push: the
+//! one approaching it; the sweep order, sorted along space, runs up a 2D stack from its floor
+//! (a 3D one slab of cells at a time; and block by block, see [`crate::schedule`]), so support
+//! reaches the top in that one sweep. The lower particle does not feel the push: the
 //! reaction is what it would have passed on down to the floor (or, in a capped mid-air
 //! cluster, is lost, so momentum is exact there only while the sweeps converge). Impacts never
 //! take part: they keep the lecture's response.

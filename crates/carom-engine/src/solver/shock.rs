@@ -6,10 +6,12 @@ use crate::schedule::{Change, Exchange};
 use crate::vector::Vector;
 
 /// Shock propagation (Guendelman, Bridson and Fedkiw 2003), after relax sweeps that hit their
-/// cap: one sweep in the fixed order (which, sorted along space, runs up a stack from its
-/// floor) in which a resting contact treats its lower particle as fixed and stops the upper
-/// one approaching it. Planes go first. Support so reaches the top of a stack in one sweep
-/// instead of the thousands a chain of a hundred takes with equal and opposite impulses.
+/// cap: one sweep in the fixed order (sorted by grid cell with the last axis slowest, so in 2D
+/// under gravity along y it runs up a stack from its floor; in 3D, up each slab of cells) in
+/// which a resting contact treats its lower particle as fixed and stops the upper one
+/// approaching it. Planes go first. Support so reaches the top of a stack in one sweep instead
+/// of the thousands a chain of a hundred takes with equal and opposite impulses. The impulse is
+/// added to the contact's accumulated one, so the next step's warm start carries it.
 pub(super) fn shock<V: Vector, E: Exchange<V>>(
     exchange: &mut E,
     velocity: &mut [V],
