@@ -1232,20 +1232,39 @@ impl<V: Vector> World<V> {
     }
 
     /// The last step's overlapping pairs (the lecture's detection at the start of its velocity
-    /// phase), as ids `(a, b)` with `a < b`, sorted.
+    /// phase), as ids `(a, b)` with `a < b`, sorted. Islands asleep are not searched while they
+    /// sleep: for them, the resting contacts they remember (those carrying an impulse, see
+    /// [`World::contact_impulses`]) that overlap now.
     pub fn contacts(&self) -> &[Pair] {
         self.contacts_by_id.get_or_init(|| {
+            let by_id = |i: u32, j: u32| {
+                let (a, b) = (self.ids[i as usize], self.ids[j as usize]);
+                (a.min(b), a.max(b))
+            };
             let mut c: Vec<Pair> = self
                 .pairs
                 .iter()
                 .zip(&self.rows)
                 .filter(|(_, row)| row.touching)
-                .map(|(&(i, j), _)| {
-                    let (a, b) = (self.ids[i as usize], self.ids[j as usize]);
-                    (a.min(b), a.max(b))
-                })
+                .map(|(&(i, j), _)| by_id(i, j))
                 .collect();
+            let asleep = |i: u32| self.all_asleep || self.islands.sleeps(i as usize);
+            let p = &self.store;
+            let overlap = |i: usize, j: usize| {
+                let (xi, xj) = (p.position[i], p.position[j]);
+                let xj = self.periodic.as_ref().map_or(xj, |w| w.image(xi, xj));
+                xi != xj && crate::response::is_overlapping(xi, xj, p.radius[i], p.radius[j])
+            };
+            c.extend(
+                self.memory
+                    .pairs
+                    .iter()
+                    .filter(|&&(i, j, _)| asleep(i) && asleep(j))
+                    .filter(|&&(i, j, _)| overlap(i as usize, j as usize))
+                    .map(|&(i, j, _)| by_id(i, j)),
+            );
             c.sort_unstable();
+            c.dedup();
             c
         })
     }

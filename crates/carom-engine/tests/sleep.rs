@@ -92,6 +92,34 @@ fn a_poured_pile_falls_asleep_whole_and_costs_nothing_to_step() {
     );
 }
 
+/// A pile asleep still lists its contacts: the resting contacts it fell asleep with, every one
+/// overlapping (the lecture's detection), sorted by id, and about as many as while it was
+/// awake.
+#[test]
+fn a_sleeping_pile_still_lists_its_contacts() {
+    let mut w = pour(150, 21).build().unwrap();
+    let slept = until_asleep(&mut w, 1500);
+    let mut awake = pour(150, 21).build().unwrap();
+    for _ in 0..slept - 1 {
+        awake.step();
+    }
+    let before = awake.contacts().len();
+    w.step();
+    assert_eq!(w.asleep(), w.len());
+    let contacts = w.contacts();
+    assert!(
+        contacts.len() * 2 >= before && before > 0,
+        "{} asleep against {before} awake",
+        contacts.len()
+    );
+    assert!(contacts.windows(2).all(|p| p[0] < p[1]));
+    for &(a, b) in contacts {
+        assert!(a < b);
+        let ((xa, _, ra, _), (xb, _, rb, _)) = (w.particle(a as usize), w.particle(b as usize));
+        assert!(xa.distance(xb) < ra + rb, "{a} and {b} apart");
+    }
+}
+
 /// The same bits on 1, 2 and 3 threads and with every broad phase, through falling asleep.
 #[test]
 fn sleeping_is_the_same_on_every_thread_count_and_broad_phase() {
