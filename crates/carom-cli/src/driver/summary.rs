@@ -86,8 +86,9 @@ impl<V: Vector> Summary<'_, V> {
         );
         if d.capped_steps > 0 {
             println!(
-                "solver      the velocity sweeps stopped at their cap ({}) in {} of \
-                 {steps} steps: contacts still approaching then were met again the next step \
+                "solver      the velocity sweeps stopped at their cap ({} a step, shared by \
+                 the substeps when contacts can rest) in {} of {steps} steps: contacts still \
+                 approaching then were met again the next step \
                  (under gravity a last sweep up the pile first holds each particle on the ones \
                  below it; the position phase bounds the overlap; a dense gas at low k collapses \
                  inelastically, a deep pile needs more sweeps: [solver] velocity_iterations)",
