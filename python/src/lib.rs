@@ -11,7 +11,7 @@
 //! moment to let Python run its signal handlers, so Ctrl-C stops the loop between two steps.
 
 use carom_engine::glam::{DVec2, DVec3};
-use carom_engine::{BroadPhaseKind, Observables, Particles, Vector};
+use carom_engine::{BroadPhaseKind, Observables, Vector};
 use carom_output::checkpoint::Checkpoint;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
@@ -338,19 +338,7 @@ fn resumed<V: Vector>(
         return Err("damaged checkpoint: dimensions disagree with its scene".into());
     }
     apply_overrides(&mut scene, settings)?;
-    let d = V::DIM;
-    let mut particles = Particles::new();
-    for id in 0..cp.radii.len() {
-        particles
-            .push(
-                V::from_slice(&cp.positions[id * d..id * d + d]),
-                V::from_slice(&cp.velocities[id * d..id * d + d]),
-                cp.radii[id],
-                cp.masses[id],
-            )
-            .map_err(|e| e.to_string())?;
-    }
-    scene.particles = particles;
+    scene.particles = cp.particles().map_err(|e| e.to_string())?;
     scene
         .into_resumed_world(
             cp.steps_taken,

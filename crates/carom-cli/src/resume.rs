@@ -126,19 +126,9 @@ fn resume_scene<V: Vector>(
         settings.broadphase.as_deref(),
         settings.cells.as_deref(),
     )?;
-    let mut particles = carom_engine::Particles::new();
-    for id in 0..cp.radii.len() {
-        let d = V::DIM;
-        particles
-            .push(
-                V::from_slice(&cp.positions[id * d..id * d + d]),
-                V::from_slice(&cp.velocities[id * d..id * d + d]),
-                cp.radii[id],
-                cp.masses[id],
-            )
-            .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
-    }
-    scene.particles = particles;
+    scene.particles = cp
+        .particles()
+        .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
     let name = scene.name.clone();
     let rebuild = || {
         scene

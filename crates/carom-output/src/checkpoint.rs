@@ -29,7 +29,7 @@
 //! checksum, so a damaged or foreign file is refused with a clear message and never makes the
 //! reader allocate more than the file holds.
 
-use carom_engine::{ContactImpulses, Tally, Vector, World};
+use carom_engine::{ContactImpulses, EngineError, Particles, Tally, Vector, World};
 use std::io::{self, Write};
 
 /// Bumped whenever the layout or the meaning of a field changes.
@@ -213,6 +213,23 @@ impl Checkpoint {
             planes: self.plane_impulses.clone(),
             rest: self.rest.clone(),
         }
+    }
+
+    /// The particles the checkpoint holds, by id, for a world of `V` (the caller checks that
+    /// [`Checkpoint::dimensions`] is `V`'s). An error names the first particle the engine
+    /// refuses.
+    pub fn particles<V: Vector>(&self) -> Result<Particles<V>, EngineError> {
+        let d = V::DIM;
+        let mut particles = Particles::new();
+        for id in 0..self.radii.len() {
+            particles.push(
+                V::from_slice(&self.positions[id * d..id * d + d]),
+                V::from_slice(&self.velocities[id * d..id * d + d]),
+                self.radii[id],
+                self.masses[id],
+            )?;
+        }
+        Ok(particles)
     }
 
     /// Writes the checkpoint.

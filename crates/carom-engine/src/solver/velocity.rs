@@ -64,10 +64,10 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     );
     let parallel = c.blocks.parallel();
     let mut solve = VelocitySolve::default();
-    let mut relaxed = 0;
-    for pass in (0..substeps)
+    for (index, pass) in (0..substeps)
         .map(|_| Pass::Relax)
         .chain([Pass::Restitution])
+        .enumerate()
     {
         if pass == Pass::Restitution {
             exchange.settle_rows(c.blocks, c.rows);
@@ -107,7 +107,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         );
         // (once a step, after the last substep's relax: a shock sweep in every substep stirs a
         // pile, which then takes longer to come to rest)
-        let last_relax = pass == Pass::Relax && relaxed + 1 == substeps;
+        let last_relax = index as u32 + 1 == substeps;
         if capped && last_relax && !settings.lecture_pairs() && gravity != V::ZERO {
             let up = gravity * (-1.0 / gravity.length_squared().sqrt());
             shock(exchange, velocity, c, up, !planes_in_move);
@@ -115,7 +115,6 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         solve.iterations += sweeps;
         solve.capped |= capped;
         if pass == Pass::Relax {
-            relaxed += 1;
             let clock = Instant::now();
             advance_positions(parallel, &mut position[..own], &velocity[..own], asleep, h);
             if substeps > 1 {
