@@ -12,11 +12,23 @@ use std::process::{Command, Output};
 
 const CAROM: &str = env!("CARGO_BIN_EXE_carom");
 
+/// `mpirun` with a session directory of its own: Open MPI keeps one per user under `TMPDIR`,
+/// and runs started side by side (the tests run in parallel) removed it under each other
+/// ("A call to mkdir was unable to create the desired directory", seen once in CI). The
+/// directory lives as long as the returned guard.
+fn mpirun_command() -> (Command, tempfile::TempDir) {
+    let session = tempfile::tempdir().unwrap();
+    let mut command = Command::new("mpirun");
+    command.env("TMPDIR", session.path());
+    (command, session)
+}
+
 /// `mpirun -np ranks carom args...`, allowed as root and with more ranks than cores (CI
 /// machines have two). A deadlocked run fails the test after three minutes.
 fn mpirun(ranks: usize, args: &[&str]) -> Output {
+    let (mut command, _session) = mpirun_command();
     support::run_guarded(
-        Command::new("mpirun")
+        command
             .args([
                 "--allow-run-as-root",
                 "--oversubscribe",
@@ -216,7 +228,8 @@ fn ctrl_c_to_mpirun_stops_every_rank_at_one_step_with_a_checkpoint() {
     let path = scene("lecture_5000_grid100.toml");
     let dir = tempfile::tempdir().unwrap();
     let ckpt = dir.path().join("state.ckpt");
-    let mut child = Command::new("mpirun")
+    let (mut command, _session) = mpirun_command();
+    let mut child = command
         .args(["--allow-run-as-root", "--oversubscribe", "-np", "2", CAROM])
         .args(["run", &path, "--steps", "100000000", "--checkpoint"])
         .arg(&ckpt)
