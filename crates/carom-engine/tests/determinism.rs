@@ -297,8 +297,9 @@ fn golden_scene<V: Vector>() -> World<V> {
 /// commit. An unexplained change here means results are no longer reproducible.
 #[test]
 fn golden_hash_2d() {
-    // (changed with the shock sweep: this run hits the relax cap under gravity)
-    const GOLDEN: u64 = 0x1b39_27ce_1557_6ce7;
+    // (changed with the shock sweep: this run hits the relax cap under gravity; and when the
+    // restitution pass stopped chasing resting contacts' misses under the resting speed)
+    const GOLDEN: u64 = 0x54c8_8404_c12c_ec57;
     let mut w = golden_scene::<DVec2>();
     for _ in 0..200 {
         w.step();
@@ -309,7 +310,9 @@ fn golden_hash_2d() {
 /// See [`golden_hash_2d`].
 #[test]
 fn golden_hash_3d() {
-    const GOLDEN: u64 = 0xdb10_1887_810b_3b5d;
+    // (changed when the restitution pass stopped chasing resting contacts' misses under the
+    // resting speed)
+    const GOLDEN: u64 = 0xf5fe_ca6d_449b_c784;
     let mut w = golden_scene::<DVec3>();
     for _ in 0..200 {
         w.step();

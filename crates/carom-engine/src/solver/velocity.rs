@@ -25,8 +25,10 @@ use std::time::Instant;
 ///    a shock sweep follows (see [`shock`]). What the last relax leaves is remembered for the
 ///    next step;
 /// 3. *restitution* (when there were impacts): sweeps until every impact separates at its
-///    `k s` and no other contact approaches. An isolated impact so gets exactly the lecture's
-///    formula, and one against a pile at rest bounces off it as off a wall.
+///    `k s` and no other contact misses its goal by more than the resting speed (what the
+///    impacts push into; smaller misses are the relax's, left to the next step). An isolated
+///    impact so gets exactly the lecture's formula, and one against a pile at rest bounces off
+///    it as off a wall.
 ///
 /// Small steps carry a pile's weight far better than as many sweeps in one step: each
 /// substep's error is `h^2` small.
@@ -220,14 +222,14 @@ pub(super) fn relax<V: Vector, E: Exchange<V>>(
         if lecture_pairs {
             lecture_pair(row, vi, vj, k).into()
         } else {
-            accumulate_pair(row, vi, vj, pass, tolerance)
+            accumulate_pair(row, vi, vj, pass, tolerance, resting)
         }
     };
     let plane_rule = |row: &mut PlaneRow<V>, v: &mut V| {
         if row.restitution >= 1.0 || resting <= 0.0 {
             lecture_plane(row, v).into()
         } else {
-            accumulate_plane(row, v, pass, tolerance)
+            accumulate_plane(row, v, pass, tolerance, resting)
         }
     };
     let blocks = c.blocks;
