@@ -70,17 +70,18 @@ fn quiet(pass: Pass, bounce: f64, met: bool, dv: f64, resting: f64) -> bool {
 }
 
 /// The accumulated-impulse rule for one pair in `pass`: push (never pull) until the pair's
-/// relative normal velocity reaches its goal. Changes of the relative speed up to `tolerance`
-/// keep no sweeps going; `resting` is the resting speed (see [`quiet`]).
+/// relative normal velocity reaches its goal. `resting` is the resting speed: changes of the
+/// relative speed up to [`RESIDUAL_FRACTION`] of it keep no sweeps going (0: any change does),
+/// and see [`quiet`].
 #[inline]
 pub(super) fn accumulate_pair<V: Vector>(
     row: &mut Row<V>,
     vi: &mut V,
     vj: &mut V,
     pass: Pass,
-    tolerance: f64,
     resting: f64,
 ) -> Change {
+    let tolerance = RESIDUAL_FRACTION * resting;
     let vn = row.normal.dot(*vi - *vj);
     let goal = goal(pass, row.bounce, row.met, row.allowance);
     let target = (row.impulse - (vn - goal) * row.effective_mass).max(0.0);
@@ -127,9 +128,9 @@ pub(super) fn accumulate_plane<V: Vector>(
     row: &mut PlaneRow<V>,
     v: &mut V,
     pass: Pass,
-    tolerance: f64,
     resting: f64,
 ) -> Change {
+    let tolerance = RESIDUAL_FRACTION * resting;
     let vn = row.normal.dot(*v);
     let goal = goal(pass, row.bounce, row.met, row.allowance);
     let target = (row.impulse - (vn - goal)).max(0.0);

@@ -21,7 +21,7 @@ pub(super) fn shock<V: Vector, E: Exchange<V>>(
 ) {
     if with_planes {
         let on_planes =
-            |row: &mut PlaneRow<V>, v: &mut V| accumulate_plane(row, v, Pass::Relax, 0.0, 0.0);
+            |row: &mut PlaneRow<V>, v: &mut V| accumulate_plane(row, v, Pass::Relax, 0.0);
         c.blocks
             .every_plane(velocity, c.plane_contacts, c.plane_rows, &on_planes);
     }
@@ -31,7 +31,7 @@ pub(super) fn shock<V: Vector, E: Exchange<V>>(
         }
         let height = row.normal.dot(up);
         if height.abs() < SHOCK_MIN_HEIGHT {
-            return accumulate_pair(row, vi, vj, Pass::Relax, 0.0, 0.0);
+            return accumulate_pair(row, vi, vj, Pass::Relax, 0.0);
         }
         let vn = row.normal.dot(*vi - *vj);
         let short = -row.allowance - vn;

@@ -216,20 +216,19 @@ pub(super) fn relax<V: Vector, E: Exchange<V>>(
 ) -> (u32, bool) {
     let k = settings.restitution;
     let resting = settings.resting_speed;
-    let tolerance = RESIDUAL_FRACTION * resting;
     let lecture_pairs = settings.lecture_pairs();
     let pair_rule = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
         if lecture_pairs {
             lecture_pair(row, vi, vj, k).into()
         } else {
-            accumulate_pair(row, vi, vj, pass, tolerance, resting)
+            accumulate_pair(row, vi, vj, pass, resting)
         }
     };
     let plane_rule = |row: &mut PlaneRow<V>, v: &mut V| {
         if row.restitution >= 1.0 || resting <= 0.0 {
             lecture_plane(row, v).into()
         } else {
-            accumulate_plane(row, v, pass, tolerance, resting)
+            accumulate_plane(row, v, pass, resting)
         }
     };
     let blocks = c.blocks;
