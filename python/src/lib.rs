@@ -517,8 +517,9 @@ impl World {
     /// The last step's touching pairs: int64 array of shape (M, 2), ids `a < b`, sorted.
     ///
     /// These are the pairs the lecture's detection finds overlapping (`distance < r1 + r2`)
-    /// at the start of the step's velocity phase; empty before the first step. Islands asleep
-    /// (at rest, see the README's notes on sleep) are not listed.
+    /// at the start of the step's velocity phase; empty before the first step. Pairs of sleeping
+    /// particles (at rest, see the README's notes on sleep) are the remembered resting
+    /// contacts that overlap.
     fn contacts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<i64>>> {
         let state = self.lock()?;
         let flat: Vec<i64> = with_world!(&state.world, w => w

@@ -58,7 +58,7 @@ def test_steps_in_pieces_equal_one_call():
 
 
 def test_same_bits_through_a_pile_falling_asleep(cli, tmp_path, small_pile):
-    # resting contacts, warm-started impulses, rest timers and sleeping islands
+    # resting contacts, warm-started impulses, rest timers and sleeping particles
     cli("run", small_pile, "--steps", 450, "--out", tmp_path / "cli.csv")
     world = carom.load(small_pile)
     world.step(450)

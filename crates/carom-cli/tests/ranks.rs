@@ -122,7 +122,7 @@ fn zero_ranks_is_refused() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("--ranks"));
 }
 
-/// A pile whose islands fall asleep (dt = 1/60, a short sleep time): 2500 discs, so two or
+/// A pile whose particles fall asleep (dt = 1/60, a short sleep time): 2500 discs, so two or
 /// three ranks each own whole solver blocks.
 const SLEEPY: &str = r#"
 dimensions = 2
@@ -146,7 +146,7 @@ min = [-49.0, -49.0]
 max = [49.0, 0.0]
 "#;
 
-/// Islands that sleep span the ranks' borders: a split run sleeps the very same ones and
+/// Sleepers span the ranks' borders: a split run sleeps the very same ones and
 /// writes the single process's bytes (final state, trajectory, checkpoint with rest times).
 #[test]
 fn a_sleeping_scene_splits_into_the_same_bytes() {

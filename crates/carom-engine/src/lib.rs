@@ -14,7 +14,7 @@
 //! | the grid without a box: an unbounded spatial hash (Teschner et al. 2003) | [`hash`] |
 //! | many simultaneous contacts: impacts, resting impulses, pushing trapped particles apart | [`solver`] |
 //! | resting impulses remembered between steps (warm starting) | [`memory`] |
-//! | islands at rest fall asleep | [`sleep`] |
+//! | particles at rest fall asleep, part of a pile at a time | [`sleep`] |
 //! | temperature, collision count, virial pressure | [`observe`] |
 //! | what kinetic theory says they should be (Enskog, Henderson, Carnahan-Starling, Haff) | [`theory`] |
 //! | the fixed order of contacts on threads and processes | [`schedule`] |

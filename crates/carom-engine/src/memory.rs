@@ -99,19 +99,19 @@ impl Memory {
         }
     }
 
-    /// [`Memory::store`], keeping the entries of `into` whose first slot `sleeps` (a sleeping
-    /// island's contacts are not in `keys`, and keep their impulses for when it wakes). `keys`
-    /// names no sleeping slot, so the two sorted lists merge without a clash; `scratch` is
-    /// reused space.
+    /// [`Memory::store`], keeping the entries of `into` that `sleeps` (the contacts of a
+    /// sleeping particle with another one are not in `keys`, and keep their impulses for when
+    /// they wake) unless `keys` has them too (a sleeper's contact with an awake particle is
+    /// solved, and remembers the new impulse); `scratch` is reused space.
     pub fn store_keeping_asleep(
         into: &mut Vec<(u32, u32, f64)>,
         scratch: &mut Vec<(u32, u32, f64)>,
         keys: &[Pair],
         impulse: impl Fn(usize) -> f64,
-        sleeps: impl Fn(u32) -> bool,
+        sleeps: impl Fn(&(u32, u32, f64)) -> bool,
     ) {
         scratch.clear();
-        scratch.extend(into.iter().copied().filter(|e| sleeps(e.0)));
+        scratch.extend(into.iter().copied().filter(|e| sleeps(e)));
         if scratch.is_empty() {
             return Self::store(into, keys, impulse);
         }
@@ -121,6 +121,8 @@ impl Memory {
             while let Some(e) = kept.next_if(|e| (e.0, e.1) < (i, j)) {
                 into.push(e);
             }
+            // (a contact solved this step, its sleeper fixed, remembers what it took)
+            kept.next_if(|e| (e.0, e.1) == (i, j));
             let value = impulse(k);
             if value > 0.0 {
                 into.push((i, j, value));
@@ -282,7 +284,7 @@ mod tests {
             &mut scratch,
             &keys,
             |k| values[k],
-            |s| [0, 1, 4, 5].contains(&s),
+            |e| [0, 1, 4, 5].contains(&e.0),
         );
         assert_eq!(into, vec![(0, 1, 1.0), (2, 3, 0.5), (4, 5, 3.0)]);
     }

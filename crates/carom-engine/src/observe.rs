@@ -18,7 +18,7 @@
 //!   impulses for forces: hard spheres, eq. 3.44). Planes do not enter: in a walled box
 //!   without gravity the walls' impulses *are* the pressure, and the virial theorem makes the
 //!   formula above equal to their force per area (the walls' virial is `-d P V`); with gravity
-//!   the pressure varies with height and this is its mean over the box. Islands asleep (see
+//!   the pressure varies with height and this is its mean over the box. Pairs of sleepers (see
 //!   [`crate::sleep`]) add neither collisions nor virial;
 //! - max overlap: the largest `(r_i + r_j - |x_i - x_j|) / min(r_i, r_j)` at that step (0 if
 //!   none).

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 ///
 /// The phases, in step order (see [`crate::step`]): `sort` (reordering along space every few
 /// steps), `broad_phase` (each particle's reach, the grid/hash/brute candidates, plane
-/// candidates, islands and sleep, planning the blocks), `rows` (the lecture's detection on every
+/// candidates, who sleeps, planning the blocks), `rows` (the lecture's detection on every
 /// candidate and the warm start from remembered impulses), `velocity` (the velocity phase's
 /// sweeps: the lecture's response, resting impulses, restitution), `motion` (gravity, the move
 /// `x += v dt` and re-placing the rows between substeps), `position` (the position phase, planes

@@ -33,7 +33,7 @@ use crate::particles::Particles;
 use crate::periodic::{self, Periodic};
 use crate::plane::{check_restitution, Plane};
 use crate::schedule::{Alone, Blocks, PlaneContact};
-use crate::sleep::{self, Islands, SleepSettings, DEFAULT_SLEEP_TIME, SLEEP_SPEED_FRACTION};
+use crate::sleep::{self, SleepSettings, Sleepers, DEFAULT_SLEEP_TIME, SLEEP_SPEED_FRACTION};
 use crate::solver::{
     self, Contacts, Moving, PlaneRow, Row, SolverSettings, VelocitySolve, WorkList,
 };
@@ -89,15 +89,16 @@ pub struct WorldConfig<V> {
     /// gravity, where every contact follows the lecture's formula exactly). `Some(0.0)` turns
     /// this off. Restitution 1 always bounces, so energy stays exact.
     pub resting_speed: Option<f64>,
-    /// Let islands at rest sleep (see [`crate::sleep`]); on by default, as in Box2D and Rapier.
+    /// Let particles at rest sleep (see [`crate::sleep`]); on by default, as in Box2D and Rapier.
     /// Only when contacts can rest (gravity, and `k < 1` somewhere): an elastic or weightless
-    /// world never sleeps. A world split over processes ([`crate::cluster`]) sleeps the same
-    /// islands.
+    /// world never sleeps. A world split over processes ([`crate::cluster`]) puts the same
+    /// particles to sleep.
     pub sleep: bool,
     /// A particle moving slower than this (length / time) rests; `None`: the resting
     /// speed (see [`crate::sleep::SLEEP_SPEED_FRACTION`]).
     pub sleep_speed: Option<f64>,
-    /// How long (time units, > 0) every particle of an island must rest before it sleeps.
+    /// How long (time units, > 0) a particle and every particle within
+    /// [`crate::sleep::WAKE_HOPS`] contact candidates of it must rest before it sleeps.
     pub sleep_time: f64,
 }
 
@@ -126,7 +127,7 @@ impl<V: Vector> WorldConfig<V> {
         }
     }
 
-    /// When islands may sleep in a world with `planes`: `None` when sleeping is off or no
+    /// When particles may sleep in a world with `planes`: `None` when sleeping is off or no
     /// contact can rest.
     pub fn sleep_settings(&self, planes: &[Plane<V>]) -> Option<SleepSettings> {
         let elastic_planes = planes.iter().all(|p| p.restitution() >= 1.0);
@@ -247,7 +248,7 @@ impl<V: Vector> WorldBuilder<V> {
         self.config.resting_speed = Some(speed);
         self
     }
-    /// Lets islands at rest sleep (the default), or not (see [`crate::sleep`]).
+    /// Lets particles at rest sleep (the default), or not (see [`crate::sleep`]).
     pub fn sleep(mut self, on: bool) -> Self {
         self.config.sleep = on;
         self
@@ -424,7 +425,7 @@ impl<V: Vector> WorldBuilder<V> {
             plane_buffers: Vec::new(),
             memory: remembered,
             rest,
-            islands: Islands::default(),
+            sleepers: Sleepers::default(),
             start: Vec::new(),
             all_asleep: false,
             asleep_overlap: 0.0,
@@ -545,14 +546,14 @@ pub struct World<V: Vector> {
     memory: Memory,
     /// How long each slot has rested (see [`crate::sleep`]).
     rest: Vec<f64>,
-    /// This step's islands and who sleeps.
-    islands: Islands,
-    /// Positions at the start of the step (only when islands may sleep).
+    /// Who sleeps this step.
+    sleepers: Sleepers,
+    /// Positions at the start of the step (only when particles may sleep).
     start: Vec<V>,
     /// Every particle slept through the last step and nothing has woken any since: the next
     /// step would find them all asleep again, so it skips straight to the end.
     all_asleep: bool,
-    /// The deepest overlap in the sleeping islands (as in [`StepStats::max_overlap`]).
+    /// The deepest overlap between sleeping particles (as in [`StepStats::max_overlap`]).
     asleep_overlap: f64,
     /// Where the steps' time went (see [`PhaseTimes`]).
     phase_times: PhaseTimes,
@@ -723,7 +724,7 @@ impl<V: Vector> Phases for World<V> {
         let dt = self.config.dt;
         let sleep = self.config.sleep_settings(&self.planes);
         if self.all_asleep {
-            // (the islands, contacts and rows of a world asleep are those of the last step,
+            // (the sleepers, contacts and rows of a world asleep are those of the last step,
             // which slept whole: nothing to find, nothing to solve)
             self.pairs.clear();
             self.rows.clear();
@@ -751,8 +752,8 @@ impl<V: Vector> Phases for World<V> {
         self.broad_phase
             .find_pairs(&self.store.position, &self.reach, &mut self.pairs);
         match sleep {
-            Some(settings) => self.put_islands_to_sleep(settings.time),
-            None => self.islands.wake_all(),
+            Some(settings) => self.mark_sleepers(settings.time),
+            None => self.sleepers.wake_all(),
         }
         self.find_plane_contacts(parallel);
         self.blocks.plan(
@@ -766,6 +767,9 @@ impl<V: Vector> Phases for World<V> {
         let rows_started = Instant::now();
         let p = &self.store;
         let periodic = self.periodic;
+        let sleepers = &self.sleepers;
+        // (a sleeper in a pair is a fixed obstacle: infinite mass)
+        let mass = |i: usize| solver::moving_mass(p.mass[i], sleepers.sleeps(i));
         solver::prepare_rows(&mut self.rows, &self.pairs, parallel, |(i, j)| {
             let (i, j) = (i as usize, j as usize);
             let (xi, xj) = (p.position[i], p.position[j]);
@@ -775,8 +779,8 @@ impl<V: Vector> Phases for World<V> {
                 periodic.map_or(V::ZERO, |q| q.shift(xi, xj)),
                 p.radius[i],
                 p.radius[j],
-                p.mass[i],
-                p.mass[j],
+                mass(i),
+                mass(j),
                 dt,
             )
         });
@@ -810,13 +814,13 @@ impl<V: Vector> Phases for World<V> {
         if self.all_asleep {
             return VelocitySolve::default();
         }
-        let (mut contacts, store, islands) = self.contacts_mut();
+        let (mut contacts, store, sleepers) = self.contacts_mut();
         let own = store.len();
         let moving = Moving {
             position: &mut store.position,
             velocity: &mut store.velocity,
             own,
-            asleep: islands.sleepers(),
+            asleep: sleepers.flags(),
         };
         solver::integrate(&mut Alone, &settings, gravity, dt, moving, &mut contacts)
     }
@@ -843,15 +847,15 @@ impl<V: Vector> Phases for World<V> {
         if self.all_asleep {
             return;
         }
-        let (rows, islands) = (&self.rows, &self.islands);
+        let (rows, sleepers) = (&self.rows, &self.sleepers);
         let memory = &mut self.memory;
-        let sleeps = |slot: u32| islands.sleeps(slot as usize);
+        let sleeps = |slot: u32| sleepers.sleeps(slot as usize);
         Memory::store_keeping_asleep(
             &mut memory.pairs,
             &mut memory.scratch,
             &self.pairs,
             |k| rows[k].kept,
-            sleeps,
+            |&(i, _, _)| sleeps(i),
         );
         let plane_rows = &self.plane_rows;
         Memory::store_keeping_asleep(
@@ -859,7 +863,7 @@ impl<V: Vector> Phases for World<V> {
             &mut memory.scratch,
             &self.plane_contacts,
             |k| plane_rows[k].kept,
-            sleeps,
+            |&(i, _, _)| sleeps(i),
         );
     }
 
@@ -875,13 +879,13 @@ impl<V: Vector> Phases for World<V> {
                     self.parallel(),
                     &self.start,
                     &self.store.position,
-                    self.islands.sleepers(),
+                    self.sleepers.flags(),
                     &mut self.rest,
                     &settings,
                     self.config.dt,
                 );
             }
-            self.all_asleep = !self.store.is_empty() && self.islands.count == self.store.len();
+            self.all_asleep = !self.store.is_empty() && self.sleepers.count == self.store.len();
         }
         // (all asleep: everything is at rest, no collision, no virial, no thermal motion)
         let rows = solver::tally(&self.rows);
@@ -905,7 +909,7 @@ impl<V: Vector> Phases for World<V> {
             periodic::wrap_all(p, self.parallel(), &mut self.store.position);
         }
         StepStats {
-            asleep: self.islands.count,
+            asleep: self.sleepers.count,
             contacts: rows.touching as usize,
             plane_contacts: self.plane_rows.iter().filter(|r| r.touching).count(),
             velocity_iterations: solve.iterations,
@@ -960,11 +964,11 @@ impl<V: Vector> World<V> {
         let (position, reach, planes) = (&self.store.position, &self.reach, &self.planes);
         let radius = &self.store.radius;
         let in_move = (self.config.solver_settings()).planes_in_move(planes, self.config.gravity);
-        let islands = &self.islands;
+        let sleepers = &self.sleepers;
         let work = |(c, out): (usize, &mut Vec<PlaneContact>)| {
             out.clear();
             for i in c * INTEGRATE_CHUNK..((c + 1) * INTEGRATE_CHUNK).min(n) {
-                if islands.sleeps(i) {
+                if sleepers.sleeps(i) {
                     continue;
                 }
                 for (p, plane) in planes.iter().enumerate() {
@@ -994,21 +998,22 @@ impl<V: Vector> World<V> {
         keep_headroom(&mut self.plane_contacts);
     }
 
-    /// Marks this step's sleeping islands (see [`crate::sleep`]), stops them, and drops their
-    /// contacts from this step's candidates; keeps the positions the step starts from.
-    fn put_islands_to_sleep(&mut self, time: f64) {
-        let asleep = self.islands.mark(&self.pairs, &self.rest, time);
+    /// Marks this step's sleepers (see [`crate::sleep`]), stops them, and drops the contacts
+    /// between two of them from this step's candidates; keeps the positions the step starts
+    /// from.
+    fn mark_sleepers(&mut self, time: f64) {
+        let asleep = self.sleepers.mark(&self.pairs, &self.rest, time);
         self.start.clear();
         self.start.extend_from_slice(&self.store.position);
         self.asleep_overlap = 0.0;
         if asleep == 0 {
             return;
         }
-        let (islands, p) = (&self.islands, &self.store);
+        let (sleepers, p) = (&self.sleepers, &self.store);
         // (measured here, as the position phase measures the awake ones)
         for &(i, j) in &self.pairs {
             let (i, j) = (i as usize, j as usize);
-            if islands.sleeps(i) {
+            if sleepers.sleeps(i) && sleepers.sleeps(j) {
                 let (ri, rj) = (p.radius[i], p.radius[j]);
                 let (xi, mut xj) = (p.position[i], p.position[j]);
                 if let Some(q) = &self.periodic {
@@ -1020,15 +1025,16 @@ impl<V: Vector> World<V> {
             }
         }
         for (slot, v) in self.store.velocity.iter_mut().enumerate() {
-            if islands.sleeps(slot) {
+            if sleepers.sleeps(slot) {
                 *v = V::ZERO;
             }
         }
-        // (an island is closed under the candidates: a pair sleeps whole or not at all)
-        self.pairs.retain(|&(i, _)| !islands.sleeps(i as usize));
+        // (a pair with one particle awake stays: the sleeper is a fixed obstacle in it)
+        self.pairs
+            .retain(|&(i, j)| !(sleepers.sleeps(i as usize) && sleepers.sleeps(j as usize)));
     }
 
-    /// True when islands may sleep and every particle has rested long enough and stands still:
+    /// True when particles may sleep and every particle has rested long enough and stands still:
     /// this step then finds the whole world asleep and nothing moves, so the spatial sort is
     /// skipped (it was the only cost of a sleeping world: 3 us a step for the lecture pile,
     /// 0.01 us without). A function of the state alone, so a resumed run skips it too.
@@ -1044,21 +1050,21 @@ impl<V: Vector> World<V> {
         }
     }
 
-    /// Wakes every island: the next step starts with nobody asleep and every rest time at zero.
+    /// Wakes every particle: the next step starts with nobody asleep and every rest time at zero.
     fn wake_everything(&mut self) {
         self.rest.fill(0.0);
-        self.islands.wake_all();
+        self.sleepers.wake_all();
         self.all_asleep = false;
         self.asleep_overlap = 0.0;
     }
 
     /// Particles asleep in the last step (see [`crate::sleep`]).
     pub fn asleep(&self) -> usize {
-        self.islands.count
+        self.sleepers.count
     }
 
     /// This step's contacts, for the solver.
-    fn contacts_mut(&mut self) -> (Contacts<'_, V>, &mut Particles<V>, &Islands) {
+    fn contacts_mut(&mut self) -> (Contacts<'_, V>, &mut Particles<V>, &Sleepers) {
         self.stamps.resize(self.store.len(), 0);
         (
             Contacts {
@@ -1074,7 +1080,7 @@ impl<V: Vector> World<V> {
                 },
             },
             &mut self.store,
-            &self.islands,
+            &self.sleepers,
         )
     }
 
@@ -1126,7 +1132,7 @@ impl<V: Vector> World<V> {
         self.by_id.take();
         let s = self.slots[id] as usize;
         self.store.velocity[s] = velocity;
-        // (a push wakes the particle, and with it its island at the next step)
+        // (a push wakes the particle, and with it its neighbours at the next step)
         self.rest[s] = 0.0;
         self.all_asleep = false;
         Ok(())
@@ -1174,7 +1180,7 @@ impl<V: Vector> World<V> {
                 .map(|&id| impulses.rest[id as usize])
                 .collect()
         };
-        self.islands.wake_all();
+        self.sleepers.wake_all();
         self.all_asleep = false;
         for (slot, &id) in storage_order.iter().enumerate() {
             let id = id as usize;
@@ -1232,8 +1238,8 @@ impl<V: Vector> World<V> {
     }
 
     /// The last step's overlapping pairs (the lecture's detection at the start of its velocity
-    /// phase), as ids `(a, b)` with `a < b`, sorted. Islands asleep are not searched while they
-    /// sleep: for them, the resting contacts they remember (those carrying an impulse, see
+    /// phase), as ids `(a, b)` with `a < b`, sorted. Pairs of sleepers are not searched while
+    /// they sleep: for them, the resting contacts they remember (those carrying an impulse, see
     /// [`World::contact_impulses`]) that overlap now.
     pub fn contacts(&self) -> &[Pair] {
         self.contacts_by_id.get_or_init(|| {
@@ -1248,7 +1254,7 @@ impl<V: Vector> World<V> {
                 .filter(|(_, row)| row.touching)
                 .map(|(&(i, j), _)| by_id(i, j))
                 .collect();
-            let asleep = |i: u32| self.all_asleep || self.islands.sleeps(i as usize);
+            let asleep = |i: u32| self.all_asleep || self.sleepers.sleeps(i as usize);
             let p = &self.store;
             let overlap = |i: usize, j: usize| {
                 let (xi, xj) = (p.position[i], p.position[j]);

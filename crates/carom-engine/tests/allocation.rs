@@ -200,7 +200,7 @@ fn a_settled_pile_does_not_allocate() {
     assert_eq!(n, 0, "settled pile kept awake: {n} allocations");
 }
 
-/// Once a pile has fallen asleep (the islands' union-find and the kept impulses of sleeping
+/// Once a pile has fallen asleep (the sleep marks and the kept impulses of sleeping
 /// contacts have grown to size), waking it and letting it fall asleep again allocates nothing.
 #[test]
 fn a_pile_waking_and_falling_asleep_again_does_not_allocate() {

@@ -1,7 +1,7 @@
 //! Property: over random small scenes, 2D and 3D, saving a checkpoint after some steps and
 //! resuming from its bytes gives the very same state (bit for bit, by `state_hash`) as running
 //! straight through. The round trip goes through `carom_output::checkpoint::Checkpoint`'s real
-//! byte format (`write_to` / `read_from`), not through in-memory copies. Some scenes let islands
+//! byte format (`write_to` / `read_from`), not through in-memory copies. Some scenes let particles
 //! sleep, so a checkpoint taken with sleepers (their rest times) resumes the same.
 
 use carom_engine::glam::{DVec2, DVec3};
@@ -17,7 +17,7 @@ struct Setup {
     gravity: [f64; 3],
     restitution: f64,
     dt: f64,
-    /// Islands sleep at this speed (after 0.05 time units at rest), or never.
+    /// Particles sleep at this speed (after 0.05 time units at rest), or never.
     sleep_speed: Option<f64>,
 }
 

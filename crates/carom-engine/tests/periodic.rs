@@ -42,7 +42,7 @@ fn cube<V: Vector>(half: f64) -> Aabb<V> {
 }
 
 /// Periodic on `axes`, walls (k = 0.8) on the others, gravity along -y, k = 0.5: resting
-/// contacts, sleeping islands and impacts all meet the seams.
+/// contacts, sleeping particles and impacts all meet the seams.
 fn periodic_pile<V: Vector>(
     bodies: &[Body<V>],
     axes: &[bool],

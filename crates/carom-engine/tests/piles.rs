@@ -89,7 +89,7 @@ fn comes_to_rest<V: Vector>(mut w: World<V>, steps: usize, calm_at_the_end: bool
     let (worst, _) = settle(&mut w, steps - 600, 300);
     let (last, capped) = settle(&mut w, 600, 0);
     let worst = worst.max(last);
-    // asleep at the end (islands at rest sleep by default), and for the 2D pile, as for the
+    // asleep at the end (particles at rest sleep by default), and for the 2D pile, as for the
     // lecture's, no step at the sweep cap in the last 600
     assert_eq!(w.asleep(), w.len(), "asleep at the end");
     if calm_at_the_end {
@@ -112,11 +112,13 @@ fn poured_spheres_come_to_rest_with_small_overlaps() {
     comes_to_rest(pour::<DVec3>(400, 12.0, 12), 1200, false);
 }
 
-/// A deep 3D pour (2500 spheres about 45 diameters deep in a 12 x 12 shaft) does not sink into
-/// itself: a jammed 3D pile is where moving resting pairs apart to touching failed (this pour
-/// ended 4.1 % of r deep and still sinking; the 10^5-sphere pour of `carom bench` 52 %).
+/// Target 4 at a size for CI: a deep 3D pour (2500 spheres about 45 diameters deep in a 12 x 12
+/// shaft) comes to rest, asleep, with the overlaps of target 1. A jammed 3D pile is where
+/// moving resting pairs apart to touching failed (this pour ended 4.1 % of r deep and still
+/// sinking; the 10^5-sphere pour of `carom bench` 52 %), and where a pile that sleeps only
+/// whole never slept (its solver noise keeps a few spheres moving somewhere at any time).
 #[test]
-fn a_deep_3d_pour_does_not_sink_into_itself() {
+fn a_deep_3d_pour_comes_to_rest_without_sinking_into_itself() {
     let mut rng = Lcg::new(17);
     let mut b = World::<DVec3>::builder()
         .dt(DT)
@@ -138,12 +140,49 @@ fn a_deep_3d_pour_does_not_sink_into_itself() {
         );
         b = b.particle(x, v, 1.0, 1.0);
     }
-    let mut w = b.build().unwrap();
-    for _ in 0..1200 {
-        w.step();
+    comes_to_rest(b.build().unwrap(), 1800, false);
+}
+
+/// Target 4, wider: 5000 spheres poured into a 24 x 24 shaft come to rest, asleep, by step
+/// 1200 with the overlaps of target 1. With piles asleep only whole (as islands), this test
+/// fails: a few spheres are always moving somewhere in the pile (the 5000-sphere pour of
+/// docs/benchmarks.md, much like this one, slept from step 2974 then; part by part, from 619).
+#[test]
+fn a_wide_3d_pour_falls_asleep_part_by_part() {
+    let mut rng = Lcg::new(5000);
+    let mut b = World::<DVec3>::builder()
+        .dt(DT)
+        .gravity(DVec3::new(0.0, -G, 0.0))
+        .restitution(0.5)
+        .domain(
+            Aabb::new(
+                DVec3::new(-12.0, -12.0, -12.0),
+                DVec3::new(12.0, 108.0, 12.0),
+            )
+            .unwrap(),
+        )
+        .walls(0.5);
+    let mut placed: Vec<DVec3> = Vec::new();
+    while placed.len() < 5000 {
+        let x = DVec3::new(
+            rng.range(-11.0, 11.0),
+            rng.range(-11.0, 107.0),
+            rng.range(-11.0, 11.0),
+        );
+        if placed
+            .iter()
+            .all(|&y| (x - y).length_squared() >= 4.0 * 1.0001)
+        {
+            let v = DVec3::new(
+                rng.range(-3.5, 3.5),
+                rng.range(-3.5, 3.5),
+                rng.range(-3.5, 3.5),
+            );
+            b = b.particle(x, v, 1.0, 1.0);
+            placed.push(x);
+        }
     }
-    let (max, mean) = overlaps(&w);
-    assert!(max <= 0.01, "max overlap {max} r (mean {mean} r)");
+    comes_to_rest(b.build().unwrap(), 1200, false);
 }
 
 /// Target 3: 100 discs stacked in a channel one diameter (plus 1%) wide hold their height for

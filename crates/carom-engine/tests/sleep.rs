@@ -1,4 +1,4 @@
-//! Islands at rest sleep (issue 10): a poured pile falls asleep whole, gives the same bits on
+//! Particles at rest sleep (issue 10): a poured pile falls asleep whole, gives the same bits on
 //! every thread count and broad phase while it does, wakes when something hits it or a
 //! parameter changes, and a ball dropped onto the sleeping pile bounces as its `k` says.
 //! Assertions on state only.
@@ -148,7 +148,7 @@ fn sleeping_is_the_same_on_every_thread_count_and_broad_phase() {
     }
 }
 
-/// A ball dropped onto the sleeping pile joins its island, wakes it, and bounces off it as
+/// A ball dropped onto the sleeping pile wakes the part of it within reach, and bounces off it as
 /// off a pile that never slept: its rebound is `k` times its impact speed within the pile's
 /// give (as in `piles.rs`).
 #[test]
@@ -209,7 +209,7 @@ fn a_changed_parameter_or_velocity_wakes_sleepers() {
     assert!(w.step().asleep < n, "a new k wakes the pile");
     until_asleep(&mut w, 1500);
 
-    // one kicked particle wakes its own island (and the pile is one island on the floor)
+    // one kicked particle wakes itself and its neighbours
     let x = w.particle(0).0;
     w.set_velocity(0, DVec2::new(0.0, 5.0)).unwrap();
     w.step();
@@ -217,7 +217,7 @@ fn a_changed_parameter_or_velocity_wakes_sleepers() {
 }
 
 /// With sleep off (the default) nothing ever sleeps, and a pile stepped either way agrees
-/// until the first island falls asleep.
+/// until the first particle falls asleep.
 #[test]
 fn sleep_off_never_sleeps() {
     let mut on = pour(60, 25).build().unwrap();

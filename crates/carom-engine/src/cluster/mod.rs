@@ -21,9 +21,9 @@
 //! one process (tests, and a check of the algorithm without MPI); the `carom` command line
 //! implements it over MPI.
 
-mod islands;
 mod lender;
 mod partition;
+mod sleepers;
 mod subdomain;
 mod traffic;
 mod transport;

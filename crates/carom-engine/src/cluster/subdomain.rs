@@ -1,8 +1,8 @@
 //! One rank's part of a world, stepped in lockstep with the others.
 
-use super::islands::SplitIslands;
 use super::lender::{borrower, lender, Leftovers, Lender};
 use super::partition::Partition;
+use super::sleepers::SplitSleepers;
 use super::traffic::{Link, Traffic, TrafficKind};
 use super::transport::Transport;
 use super::wire::{Reader, Writer};
@@ -88,8 +88,8 @@ pub struct Subdomain<V: Vector> {
     /// How long each own slot has rested (see [`crate::sleep`]).
     rest: Vec<f64>,
     /// This step's sleeping own slots.
-    islands: SplitIslands,
-    /// Own positions at the start of the step (only when islands may sleep).
+    sleepers: SplitSleepers,
+    /// Own positions at the start of the step (only when particles may sleep).
     start: Vec<V>,
     /// The deepest overlap in this rank's sleeping contacts (see `World`'s).
     asleep_overlap: f64,
@@ -248,7 +248,7 @@ impl<V: Vector> Subdomain<V> {
             arrived_planes: Vec::new(),
             rerouting: false,
             rest,
-            islands: SplitIslands::default(),
+            sleepers: SplitSleepers::default(),
             start: Vec::new(),
             asleep_overlap: 0.0,
             phase_times: PhaseTimes::default(),
@@ -666,13 +666,13 @@ impl<V: Vector> Subdomain<V> {
         self.partners.clear();
         self.partners
             .extend(self.candidates.iter().map(|c| search.id[c.1 .1 as usize]));
-        self.put_islands_to_sleep(link);
+        self.mark_sleepers(link);
         self.plane_contacts.clear();
         self.plane_rows.clear();
         let in_move =
             (self.config.solver_settings()).planes_in_move(&self.planes, self.config.gravity);
         for s in 0..own {
-            if self.islands.sleeps(s) {
+            if self.sleepers.sleeps(s) {
                 continue;
             }
             let x = self.window.position[s];
@@ -692,20 +692,25 @@ impl<V: Vector> Subdomain<V> {
         }
         let parallel = self.partition.slots() >= PARALLEL_MIN;
         let candidates = &self.candidates;
-        let search = &self.search;
+        let (search, sleepers) = (&self.search, &self.sleepers);
         self.rows.clear();
-        self.rows.extend(candidates.iter().map(|&(_, (ki, kj))| {
-            let (ki, kj) = (ki as usize, kj as usize);
-            Row::new(
-                search.position[ki],
-                search.position[kj],
-                search.radius[ki],
-                search.radius[kj],
-                search.mass[ki],
-                search.mass[kj],
-                dt,
-            )
-        }));
+        self.rows
+            .extend(candidates.iter().map(|&((i, j), (ki, kj))| {
+                let (ki, kj) = (ki as usize, kj as usize);
+                // (a sleeper in a pair is a fixed obstacle: infinite mass)
+                let mass = |k: usize, slot: u32| {
+                    solver::moving_mass(search.mass[k], sleepers.sleeps(slot as usize))
+                };
+                Row::new(
+                    search.position[ki],
+                    search.position[kj],
+                    search.radius[ki],
+                    search.radius[kj],
+                    mass(ki, i),
+                    mass(kj, j),
+                    dt,
+                )
+            }));
         crate::broadphase::keep_headroom(&mut self.rows);
         self.agree_on_borrowing(link);
         self.blocks.plan(
@@ -736,7 +741,7 @@ impl<V: Vector> Subdomain<V> {
         );
     }
 
-    /// [`World::sleeps_whole`] over every rank. Collective (only when islands may sleep).
+    /// [`World::sleeps_whole`] over every rank. Collective (only when particles may sleep).
     fn sleeps_whole<T: Transport + ?Sized>(&self, link: &mut Link<'_, T>) -> bool {
         let Some(settings) = self.config.sleep_settings(&self.planes) else {
             return false;
@@ -744,22 +749,22 @@ impl<V: Vector> Subdomain<V> {
         let own = self.own;
         let still = sleep::all_still(&self.rest, &self.window.velocity[..own], settings.time);
         let restless = u64::from(!still);
-        self.partition.slots() > 0 && link.sum_of(TrafficKind::Islands, &[restless])[0] == 0
+        self.partition.slots() > 0 && link.sum_of(TrafficKind::Sleep, &[restless])[0] == 0
     }
 
-    /// [`World`]'s `put_islands_to_sleep` for this rank's share: marks the sleeping own slots
+    /// [`World`]'s `mark_sleepers` for this rank's share: marks the sleeping own slots
     /// (collectively), stops them and drops their candidates; keeps the own positions the step
     /// starts from.
-    fn put_islands_to_sleep<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
+    fn mark_sleepers<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
         self.asleep_overlap = 0.0;
         let Some(settings) = self.config.sleep_settings(&self.planes) else {
-            self.islands.count = 0;
+            self.sleepers.count = 0;
             return;
         };
         let own = self.own;
         self.start.clear();
         self.start.extend_from_slice(&self.window.position[..own]);
-        let asleep = self.islands.mark(
+        let asleep = self.sleepers.mark(
             link,
             &self.partition,
             self.first_slot,
@@ -770,9 +775,9 @@ impl<V: Vector> Subdomain<V> {
         if asleep == 0 {
             return;
         }
-        let (islands, search) = (&self.islands, &self.search);
-        for &((i, _), (ki, kj)) in &self.candidates {
-            if islands.asleep[i as usize] {
+        let (sleepers, search) = (&self.sleepers, &self.search);
+        for &((i, j), (ki, kj)) in &self.candidates {
+            if sleepers.sleeps(i as usize) && sleepers.sleeps(j as usize) {
                 let (ki, kj) = (ki as usize, kj as usize);
                 let (ri, rj) = (search.radius[ki], search.radius[kj]);
                 let distance = (search.position[ki] - search.position[kj])
@@ -782,13 +787,16 @@ impl<V: Vector> Subdomain<V> {
                 self.asleep_overlap = self.asleep_overlap.max(overlap);
             }
         }
-        for (v, &sleeps) in self.window.velocity[..own].iter_mut().zip(&islands.asleep) {
+        for (v, &sleeps) in self.window.velocity[..own].iter_mut().zip(&sleepers.asleep) {
             if sleeps {
                 *v = V::ZERO;
             }
         }
-        // (an island is closed under the candidates: a pair sleeps whole or not at all)
-        let sleeps = |c: &(Pair, Pair)| islands.asleep[c.0 .0 as usize];
+        // (a pair with one particle awake stays: the sleeper is a fixed obstacle in it)
+        let sleeps = |c: &(Pair, Pair)| {
+            let (i, j) = c.0;
+            sleepers.sleeps(i as usize) && sleepers.sleeps(j as usize)
+        };
         let mut k = 0;
         self.partners.retain(|_| {
             k += 1;
@@ -913,8 +921,8 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
         let (gravity, dt) = (self.sub.config.gravity, self.sub.config.dt);
         let own = self.sub.own;
         // (taken out for the phase, which borrows the rest of the subdomain)
-        let asleep = std::mem::take(&mut self.sub.islands.asleep);
-        let sleepers = if self.sub.islands.count > 0 {
+        let asleep = std::mem::take(&mut self.sub.sleepers.asleep);
+        let sleepers = if self.sub.sleepers.count > 0 {
             &asleep[..]
         } else {
             &[]
@@ -928,7 +936,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
             };
             solver::integrate(exchange, &settings, gravity, dt, moving, contacts)
         });
-        self.sub.islands.asleep = asleep;
+        self.sub.sleepers.asleep = asleep;
         solve
     }
 
@@ -956,11 +964,12 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
 
     fn remember(&mut self) {
         let s = &mut *self.sub;
-        let islands = &s.islands;
-        let sleeps = |slot: u32| islands.sleeps(slot as usize);
-        // (a sleeping island's contacts keep their impulses, as in `World`: merged in order)
+        let sleepers = &s.sleepers;
+        let sleeps = |slot: u32| sleepers.sleeps(slot as usize);
+        // (a sleeper's contacts with other sleepers keep their impulses, as in `World`: merged in
+        // order)
         s.kept_asleep.clear();
-        if islands.count > 0 {
+        if sleepers.count > 0 {
             s.kept_asleep.extend(
                 s.memory
                     .pairs
@@ -978,6 +987,8 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
                 s.memory.pairs.push(e);
                 s.memory_partners.push(p);
             }
+            // (a contact solved this step, with its sleeper fixed, remembers what it took)
+            kept.next_if(|(e, _)| (e.0, e.1) == (i, j));
             if row.kept > 0.0 {
                 s.memory.pairs.push((i, j, row.kept));
                 s.memory_partners.push(partner);
@@ -993,7 +1004,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
             &mut s.memory.scratch,
             &s.plane_contacts,
             |k| plane_rows[k].kept,
-            sleeps,
+            |&(i, _, _)| sleeps(i),
         );
     }
 
@@ -1004,7 +1015,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
     fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats {
         let s = &mut *self.sub;
         s.steps += 1;
-        let asleep = s.islands.sleepers();
+        let asleep = s.sleepers.flags();
         if let Some(settings) = s.config.sleep_settings(&s.planes) {
             sleep::update_rest(
                 false,
@@ -1021,7 +1032,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
         let counts = self.link.sum(&[
             rows.touching,
             on_planes,
-            s.islands.count as u64,
+            s.sleepers.count as u64,
             rows.collisions,
         ]);
         StepStats {

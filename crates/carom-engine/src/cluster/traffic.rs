@@ -17,8 +17,8 @@ pub enum TrafficKind {
     Leftovers,
     /// Sums that stop a solver phase, bounding boxes, step statistics.
     Reductions,
-    /// Which islands span ranks, and whether they may sleep (see `cluster::islands`).
-    Islands,
+    /// Which particles sleep, across ranks (see `cluster::sleepers`).
+    Sleep,
     /// The whole state collected on rank 0 for output.
     Gather,
 }
@@ -33,7 +33,7 @@ impl TrafficKind {
         TrafficKind::Ghosts,
         TrafficKind::Leftovers,
         TrafficKind::Reductions,
-        TrafficKind::Islands,
+        TrafficKind::Sleep,
         TrafficKind::Gather,
     ];
 
@@ -45,7 +45,7 @@ impl TrafficKind {
             TrafficKind::Ghosts => "ghosts",
             TrafficKind::Leftovers => "leftovers",
             TrafficKind::Reductions => "reductions",
-            TrafficKind::Islands => "islands",
+            TrafficKind::Sleep => "sleep",
             TrafficKind::Gather => "gather",
         }
     }

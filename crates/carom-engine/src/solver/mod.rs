@@ -53,6 +53,8 @@ mod velocity;
 pub use settings::{SolverSettings, VelocitySolve, RESIDUAL_FRACTION, SLOP_FRACTION};
 
 pub(crate) use position::separate;
-pub(crate) use rows::{prepare_rows, tally, Contacts, Moving, PlaneRow, Row, WorkList};
+pub(crate) use rows::{
+    moving_mass, prepare_rows, tally, Contacts, Moving, PlaneRow, Row, WorkList,
+};
 pub(crate) use settings::{plane_reach, reach};
 pub(crate) use velocity::integrate;

@@ -90,9 +90,14 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
         }
     };
     let finish = |row: &mut Row<V>, xi: &mut V, xj: &mut V| {
+        // (a sleeping particle, of no inverse mass, stays where it sleeps)
         if !planes.is_empty() {
-            out_of_all_planes(xi, row.radius[0]);
-            out_of_all_planes(xj, row.radius[1]);
+            if row.inverse_mass[0] > 0.0 {
+                out_of_all_planes(xi, row.radius[0]);
+            }
+            if row.inverse_mass[1] > 0.0 {
+                out_of_all_planes(xj, row.radius[1]);
+            }
         }
         let (_, distance) = contact_normal(*xi, row.image(*xj));
         row.overlap = ((row.reach() - distance) / row.min_radius()).max(0.0);

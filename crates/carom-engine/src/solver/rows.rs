@@ -10,14 +10,25 @@ use crate::schedule::{Blocks, PlaneContact, Visit};
 use crate::vector::Vector;
 use rayon::prelude::*;
 
+/// The mass a particle of mass `mass` has in this step's rows: infinite when it `sleeps`,
+/// so its awake neighbours meet it as a fixed obstacle and nothing they do moves it.
+#[inline]
+pub(crate) fn moving_mass(mass: f64, sleeps: bool) -> f64 {
+    if sleeps {
+        f64::INFINITY
+    } else {
+        mass
+    }
+}
+
 /// One contact candidate's solver data, at the same index as its pair.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct Row<V> {
     /// Unit normal from `j` to `i` at the start of the velocity phase.
     pub normal: V,
-    /// `(m_i, m_j)`, > 0.
+    /// `(m_i, m_j)`, > 0; infinite for a sleeping particle (see [`moving_mass`]).
     pub mass: [f64; 2],
-    /// `(1 / m_i, 1 / m_j)`.
+    /// `(1 / m_i, 1 / m_j)` (0 for a sleeping particle).
     pub inverse_mass: [f64; 2],
     /// `1 / (1 / m_i + 1 / m_j)`: the impulse that changes the relative normal speed by one.
     pub effective_mass: f64,

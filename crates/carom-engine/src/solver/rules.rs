@@ -37,10 +37,26 @@ pub(super) fn lecture_pair<V: Vector>(row: &mut Row<V>, vi: &mut V, vj: &mut V, 
     if !(row.touching && approaching(vn, vi.length_squared() + vj.length_squared())) {
         return false;
     }
-    let before = *vi;
-    (*vi, *vj) = collide(row.normal, *vi, *vj, row.mass[0], row.mass[1], k);
-    row.delivered += row.mass[0] * row.normal.dot(*vi - before);
     row.impact = true;
+    let n = row.normal;
+    match row.inverse_mass {
+        // (against a sleeping particle, a fixed obstacle: the lecture's plane rule, relative)
+        [_, 0.0] => {
+            let change = n * (-(1.0 + k) * vn);
+            row.delivered += row.mass[0] * n.dot(change);
+            *vi += change;
+        }
+        [0.0, _] => {
+            let change = n * ((1.0 + k) * vn);
+            row.delivered -= row.mass[1] * n.dot(change);
+            *vj += change;
+        }
+        _ => {
+            let before = *vi;
+            (*vi, *vj) = collide(n, *vi, *vj, row.mass[0], row.mass[1], k);
+            row.delivered += row.mass[0] * n.dot(*vi - before);
+        }
+    }
     true
 }
 

@@ -30,7 +30,9 @@ pub(super) fn shock<V: Vector, E: Exchange<V>>(
             return Change::Nothing;
         }
         let height = row.normal.dot(up);
-        if height.abs() < SHOCK_MIN_HEIGHT {
+        // (a sleeping particle is fixed already: the rule for a pair holds it)
+        let asleep = row.inverse_mass.contains(&0.0);
+        if height.abs() < SHOCK_MIN_HEIGHT || asleep {
             return accumulate_pair(row, vi, vj, Pass::Relax, 0.0);
         }
         let vn = row.normal.dot(*vi - *vj);
