@@ -1,0 +1,348 @@
+//! One world's part in each phase of a step (see [`crate::step`]).
+
+use super::*;
+use crate::broadphase::keep_headroom;
+use crate::diagnostics::StepStats;
+use crate::memory::Memory;
+use crate::observe;
+use crate::particles::Particles;
+use crate::periodic;
+use crate::schedule::{Alone, PlaneContact};
+use crate::sleep::{self, Sleepers};
+use crate::solver::{self, Contacts, Moving, PlaneRow, Row, VelocitySolve, WorkList};
+use crate::step::Phases;
+use crate::timing::PhaseTimes;
+use crate::vector::Vector;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Particles per parallel integration task (fixed, like [`crate::broadphase`]'s chunks).
+const INTEGRATE_CHUNK: usize = 4096;
+
+impl<V: Vector> Phases for World<V> {
+    fn sort_along_space(&mut self) {
+        self.by_id.take();
+        self.contacts_by_id.take();
+        if self.steps % REORDER_INTERVAL != 0 || self.store.is_empty() || self.sleeps_whole() {
+            return;
+        }
+        self.unsorted_ids.clear();
+        self.unsorted_ids.extend_from_slice(&self.ids);
+        self.sorter.sort(
+            &mut self.store,
+            &mut self.ids,
+            &mut self.rest,
+            &mut self.slots,
+            self.config.domain,
+        );
+        self.memory.remap(&self.unsorted_ids, &self.slots);
+    }
+
+    fn find_contacts(&mut self) {
+        let parallel = self.parallel();
+        let dt = self.config.dt;
+        let sleep = self.config.sleep_settings(&self.planes);
+        if self.all_asleep {
+            // (the sleepers, contacts and rows of a world asleep are those of the last step,
+            // which slept whole: nothing to find, nothing to solve)
+            self.pairs.clear();
+            self.rows.clear();
+            self.plane_contacts.clear();
+            self.plane_rows.clear();
+            return;
+        }
+        let fall = self.config.gravity.length_squared().sqrt() * dt;
+        let reach = |(out, (v, &r)): (&mut f64, (&V, &f64))| {
+            *out = solver::reach(r, v.length_squared().sqrt() + fall, dt);
+        };
+        let p = &self.store;
+        self.reach.resize(p.len(), 0.0);
+        if parallel {
+            self.reach
+                .par_iter_mut()
+                .zip(p.velocity.par_iter().zip(p.radius.par_iter()))
+                .for_each(reach);
+        } else {
+            self.reach
+                .iter_mut()
+                .zip(p.velocity.iter().zip(p.radius.iter()))
+                .for_each(reach);
+        }
+        self.broad_phase
+            .find_pairs(&self.store.position, &self.reach, &mut self.pairs);
+        match sleep {
+            Some(settings) => self.mark_sleepers(settings.time),
+            None => self.sleepers.wake_all(),
+        }
+        self.find_plane_contacts(parallel);
+        self.blocks.plan(
+            self.store.len(),
+            self.block_size,
+            &self.pairs,
+            &self.plane_contacts,
+            parallel,
+            0,
+        );
+        let rows_started = Instant::now();
+        let p = &self.store;
+        let periodic = self.periodic;
+        let sleepers = &self.sleepers;
+        // (a sleeper in a pair is a fixed obstacle: infinite mass)
+        let mass = |i: usize| solver::moving_mass(p.mass[i], sleepers.sleeps(i));
+        solver::prepare_rows(&mut self.rows, &self.pairs, parallel, |(i, j)| {
+            let (i, j) = (i as usize, j as usize);
+            let (xi, xj) = (p.position[i], p.position[j]);
+            Row::across(
+                xi,
+                xj,
+                periodic.map_or(V::ZERO, |q| q.shift(xi, xj)),
+                p.radius[i],
+                p.radius[j],
+                mass(i),
+                mass(j),
+                dt,
+            )
+        });
+        self.plane_rows.clear();
+        self.plane_rows.reserve(self.plane_contacts.len());
+        keep_headroom(&mut self.plane_rows);
+        let planes = &self.planes;
+        self.plane_rows
+            .extend(self.plane_contacts.iter().map(|&(i, plane)| {
+                let i = i as usize;
+                PlaneRow::new(
+                    &planes[plane as usize],
+                    plane,
+                    p.position[i],
+                    p.radius[i],
+                    dt,
+                )
+            }));
+        self.memory.warm_rows(
+            &self.pairs,
+            &mut self.rows,
+            &self.plane_contacts,
+            &mut self.plane_rows,
+        );
+        self.phase_times.rows += rows_started.elapsed();
+    }
+
+    fn integrate(&mut self) -> VelocitySolve {
+        let settings = self.config.solver_settings();
+        let (gravity, dt) = (self.config.gravity, self.config.dt);
+        if self.all_asleep {
+            return VelocitySolve::default();
+        }
+        let (mut contacts, store, sleepers) = self.contacts_mut();
+        let own = store.len();
+        let moving = Moving {
+            position: &mut store.position,
+            velocity: &mut store.velocity,
+            own,
+            asleep: sleepers.flags(),
+        };
+        solver::integrate(&mut Alone, &settings, gravity, dt, moving, &mut contacts)
+    }
+
+    fn separate(&mut self) -> f64 {
+        let settings = self.config.solver_settings();
+        let gravity = self.config.gravity;
+        if self.all_asleep {
+            return self.asleep_overlap;
+        }
+        let (mut contacts, store, _) = self.contacts_mut();
+        let awake = solver::separate(
+            &mut Alone,
+            &settings,
+            gravity,
+            &mut store.position,
+            &mut store.velocity,
+            &mut contacts,
+        );
+        awake.max(self.asleep_overlap)
+    }
+
+    fn remember(&mut self) {
+        if self.all_asleep {
+            return;
+        }
+        let (rows, sleepers) = (&self.rows, &self.sleepers);
+        let memory = &mut self.memory;
+        let sleeps = |slot: u32| sleepers.sleeps(slot as usize);
+        Memory::store_keeping_asleep(
+            &mut memory.pairs,
+            &mut memory.scratch,
+            &self.pairs,
+            |k| rows[k].kept,
+            |&(i, _, _)| sleeps(i),
+        );
+        let plane_rows = &self.plane_rows;
+        Memory::store_keeping_asleep(
+            &mut memory.planes,
+            &mut memory.scratch,
+            &self.plane_contacts,
+            |k| plane_rows[k].kept,
+            |&(i, _, _)| sleeps(i),
+        );
+    }
+
+    fn times(&mut self) -> &mut PhaseTimes {
+        &mut self.phase_times
+    }
+
+    fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats {
+        self.steps += 1;
+        if let Some(settings) = self.config.sleep_settings(&self.planes) {
+            if !self.all_asleep {
+                sleep::update_rest(
+                    self.parallel(),
+                    &self.start,
+                    &self.store.position,
+                    self.sleepers.flags(),
+                    &mut self.rest,
+                    &settings,
+                    self.config.dt,
+                );
+            }
+            self.all_asleep = !self.store.is_empty() && self.sleepers.count == self.store.len();
+        }
+        // (all asleep: everything is at rest, no collision, no virial, no thermal motion)
+        let rows = solver::tally(&self.rows);
+        let (collisions, virial) = if self.all_asleep {
+            (0, 0.0)
+        } else {
+            (rows.collisions, rows.virial)
+        };
+        if self.tally.observing {
+            let thermal = if self.all_asleep {
+                0.0
+            } else {
+                observe::thermal_sum(&self.store.mass, &self.store.velocity)
+            };
+            self.tally
+                .add_step(self.config.dt, collisions, virial, thermal);
+        }
+        self.last_overlap = Some(max_overlap);
+        // Wrapped last: the rest times above compare where the step started and ended.
+        if let (Some(p), false) = (&self.periodic, self.all_asleep) {
+            periodic::wrap_all(p, self.parallel(), &mut self.store.position);
+        }
+        StepStats {
+            asleep: self.sleepers.count,
+            contacts: rows.touching as usize,
+            plane_contacts: self.plane_rows.iter().filter(|r| r.touching).count(),
+            velocity_iterations: solve.iterations,
+            responses: solve.responses,
+            collisions,
+            capped: solve.capped,
+            max_overlap,
+        }
+    }
+}
+
+impl<V: Vector> World<V> {
+    /// Every (slot, plane) with the particle within reach of the plane, sorted.
+    fn find_plane_contacts(&mut self, parallel: bool) {
+        self.plane_contacts.clear();
+        if self.planes.is_empty() {
+            return;
+        }
+        let n = self.store.len();
+        let chunks = n.div_ceil(INTEGRATE_CHUNK);
+        if self.plane_buffers.len() < chunks {
+            self.plane_buffers.resize_with(chunks, Vec::new);
+        }
+        let (position, reach, planes) = (&self.store.position, &self.reach, &self.planes);
+        let radius = &self.store.radius;
+        let in_move = (self.config.solver_settings()).planes_in_move(planes, self.config.gravity);
+        let sleepers = &self.sleepers;
+        let work = |(c, out): (usize, &mut Vec<PlaneContact>)| {
+            out.clear();
+            for i in c * INTEGRATE_CHUNK..((c + 1) * INTEGRATE_CHUNK).min(n) {
+                if sleepers.sleeps(i) {
+                    continue;
+                }
+                for (p, plane) in planes.iter().enumerate() {
+                    if plane.signed_distance(position[i])
+                        < solver::plane_reach(reach[i], radius[i], in_move)
+                    {
+                        out.push((i as u32, p as u32));
+                    }
+                }
+            }
+            keep_headroom(out);
+        };
+        if parallel {
+            self.plane_buffers[..chunks]
+                .par_iter_mut()
+                .enumerate()
+                .for_each(work);
+        } else {
+            self.plane_buffers[..chunks]
+                .iter_mut()
+                .enumerate()
+                .for_each(work);
+        }
+        for b in &self.plane_buffers[..chunks] {
+            self.plane_contacts.extend_from_slice(b);
+        }
+        keep_headroom(&mut self.plane_contacts);
+    }
+
+    /// Marks this step's sleepers (see [`crate::sleep`]), stops them, and drops the contacts
+    /// between two of them from this step's candidates; keeps the positions the step starts
+    /// from.
+    fn mark_sleepers(&mut self, time: f64) {
+        let asleep = self.sleepers.mark(&self.pairs, &self.rest, time);
+        self.start.clear();
+        self.start.extend_from_slice(&self.store.position);
+        self.asleep_overlap = 0.0;
+        if asleep == 0 {
+            return;
+        }
+        let (sleepers, p) = (&self.sleepers, &self.store);
+        // (measured here, as the position phase measures the awake ones)
+        for &(i, j) in &self.pairs {
+            let (i, j) = (i as usize, j as usize);
+            if sleepers.sleeps(i) && sleepers.sleeps(j) {
+                let (ri, rj) = (p.radius[i], p.radius[j]);
+                let (xi, mut xj) = (p.position[i], p.position[j]);
+                if let Some(q) = &self.periodic {
+                    xj = q.image(xi, xj);
+                }
+                let distance = (xi - xj).length_squared().sqrt();
+                let overlap = (ri + rj - distance) / ri.min(rj);
+                self.asleep_overlap = self.asleep_overlap.max(overlap);
+            }
+        }
+        for (slot, v) in self.store.velocity.iter_mut().enumerate() {
+            if sleepers.sleeps(slot) {
+                *v = V::ZERO;
+            }
+        }
+        // (a pair with one particle awake stays: the sleeper is a fixed obstacle in it)
+        self.pairs
+            .retain(|&(i, j)| !(sleepers.sleeps(i as usize) && sleepers.sleeps(j as usize)));
+    }
+
+    /// This step's contacts, for the solver.
+    fn contacts_mut(&mut self) -> (Contacts<'_, V>, &mut Particles<V>, &Sleepers) {
+        self.stamps.resize(self.store.len(), 0);
+        (
+            Contacts {
+                pairs: &self.pairs,
+                rows: &mut self.rows,
+                plane_contacts: &self.plane_contacts,
+                plane_rows: &mut self.plane_rows,
+                planes: &self.planes,
+                blocks: &self.blocks,
+                work: WorkList {
+                    stamps: &mut self.stamps,
+                    clock: &mut self.clock,
+                },
+            },
+            &mut self.store,
+            &self.sleepers,
+        )
+    }
+}
