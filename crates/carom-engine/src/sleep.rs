@@ -8,10 +8,11 @@
 //! *restless*.
 //!
 //! At the start of every step, every particle more than [`WAKE_HOPS`] contact candidates
-//! (pairs within reach of each other, see [`crate::world`]) away from any restless particle is
-//! *asleep* for the step: its velocity is set to zero, and gravity, the solver and the move
-//! skip it; its contacts with other sleepers keep their remembered impulses for when it wakes.
-//! An awake particle meets a sleeping one as a fixed obstacle (of infinite mass, like a plane),
+//! (pairs within reach of each other, see [`crate::world`]) away from any restless particle,
+//! and held up by something (a plane facing up or a particle below it, within
+//! [`SUPPORT_GAP`] of touching), is *asleep* for the step: its velocity is set to zero, and
+//! gravity, the solver and the move skip it; its contacts with other sleepers keep their
+//! remembered impulses for when it wakes. An awake particle meets a sleeping one as a fixed obstacle (of infinite mass, like a plane),
 //! so what rests on a sleeping part of a pile is held by it. Planes do not connect. So
 //! whatever comes near a sleeping pile (a falling ball within reach of it) wakes the part of it
 //! within reach, and that part falls asleep again once everything near it has rested for the
@@ -21,7 +22,7 @@
 //! carom did too, until a pour of 10^5 frictionless spheres, one island, never slept: its
 //! solver noise keeps a few of them moving somewhere at any time (measured: v_rms 0.05 at step
 //! 6000 of a 10^5-sphere pour, 81 of 20,000 spheres faster than the sleep speed at step 3000
-//! of a smaller one). Asleep part by part, the same pour is asleep whole from step 1023.
+//! of a smaller one). Asleep part by part, the same pour is asleep whole from step 1017.
 //!
 //! An awake particle's rest time goes on counting; a sleeping one's stays as it was.
 //! Everything here is a function of the state alone (positions, velocities and rest times, in
@@ -51,6 +52,66 @@ pub const DEFAULT_SLEEP_TIME: f64 = 0.5;
 /// time) a particle stays awake. Everything further sleeps, and its awake neighbours meet it as
 /// a fixed obstacle.
 pub const WAKE_HOPS: usize = 2;
+
+/// What holds each particle up, asked only when someone may sleep: a particle that nothing
+/// holds up stays awake, so that one whose support drifted away while it slept falls back
+/// onto it instead of sleeping in mid-air (its fall then wakes its neighbours).
+pub(crate) struct Support<'a> {
+    /// Whether slot `s` rests on a plane (see [`rests_on_plane`]).
+    pub on_plane: &'a dyn Fn(usize) -> bool,
+    /// For candidate pair `k`, whether each of its particles rests on the other (see
+    /// [`rests_on`]).
+    pub in_pair: &'a dyn Fn(usize) -> [bool; 2],
+}
+
+/// The unit vector against `gravity` (zero without gravity).
+pub(crate) fn up<V: Vector>(gravity: V) -> V {
+    let g = gravity.length_squared().sqrt();
+    if g > 0.0 {
+        gravity * (-1.0 / g)
+    } else {
+        V::ZERO
+    }
+}
+
+/// How far apart (a fraction of the smaller radius) two particles, or a particle and a plane,
+/// may be and still hold one up. A resting contact ends within the slop of touching on
+/// either side: the position phase leaves overlaps the slop deep, and a gap may close down to
+/// the slop and no further (see [`crate::solver::SLOP_FRACTION`]); twice that covers both,
+/// and rounding.
+pub const SUPPORT_GAP: f64 = 2.0 * crate::solver::SLOP_FRACTION;
+
+/// Whether particles at `xi` and `xj` (radii `ri`, `rj`) rest on each other under gravity
+/// pointing along `-up` (a unit vector; zero without gravity, when every particle counts as
+/// held up): `[i on j, j on i]`. They must touch within [`SUPPORT_GAP`].
+#[inline]
+pub(crate) fn rests_on<V: Vector>(xi: V, xj: V, ri: f64, rj: f64, up: V) -> [bool; 2] {
+    if up == V::ZERO {
+        return [true, true];
+    }
+    let apart = ri + rj + SUPPORT_GAP * ri.min(rj);
+    let d = xi - xj;
+    if d.length_squared() >= apart * apart {
+        return [false, false];
+    }
+    let height = d.dot(up);
+    [height > 0.0, height < 0.0]
+}
+
+/// Whether a particle at `x` (radius `r`) rests on one of `planes` under gravity pointing
+/// along `-up` (see [`rests_on`]): it touches a plane that faces up.
+#[inline]
+pub(crate) fn rests_on_plane<V: Vector>(
+    x: V,
+    r: f64,
+    planes: &[crate::plane::Plane<V>],
+    up: V,
+) -> bool {
+    up == V::ZERO
+        || planes
+            .iter()
+            .any(|p| p.normal().dot(up) > 0.0 && p.signed_distance(x) < r + SUPPORT_GAP * r)
+}
 
 /// Particles per parallel task when updating rest times.
 const CHUNK: usize = 8192;
@@ -83,7 +144,13 @@ impl Sleepers {
     /// Finds this step's sleeping slots: every slot more than [`WAKE_HOPS`] candidate pairs
     /// (`pairs`, slots `i < j`) away from any slot whose `rest` is under `time`. Returns how
     /// many sleep.
-    pub fn mark(&mut self, pairs: &[Pair], rest: &[f64], time: f64) -> usize {
+    pub fn mark(
+        &mut self,
+        pairs: &[Pair],
+        rest: &[f64],
+        time: f64,
+        support: &Support<'_>,
+    ) -> usize {
         let n = rest.len();
         self.asleep.clear();
         self.asleep.resize(n, false);
@@ -108,8 +175,17 @@ impl Sleepers {
             }
             std::mem::swap(&mut self.awake, &mut self.reached);
         }
-        for (asleep, &awake) in self.asleep.iter_mut().zip(&self.awake) {
-            *asleep = !awake;
+        // (a particle nothing holds up does not sleep: see `Support`)
+        self.reached.clear();
+        self.reached.extend((0..n).map(|s| (support.on_plane)(s)));
+        for (k, &(i, j)) in pairs.iter().enumerate() {
+            let [i_held, j_held] = (support.in_pair)(k);
+            self.reached[i as usize] |= i_held;
+            self.reached[j as usize] |= j_held;
+        }
+        for ((asleep, &awake), &held) in self.asleep.iter_mut().zip(&self.awake).zip(&self.reached)
+        {
+            *asleep = !awake && held;
         }
         self.count = self.asleep.iter().filter(|&&a| a).count();
         self.count
@@ -184,10 +260,14 @@ mod tests {
     fn a_particle_sleeps_only_beyond_the_wake_hops_of_every_restless_one() {
         assert_eq!(WAKE_HOPS, 2);
         let mut sleepers = Sleepers::default();
+        let held = Support {
+            on_plane: &|_| true,
+            in_pair: &|_| [false, false],
+        };
         // a chain 0-1-2-3-4-5 with 0 restless; 6 alone
         let pairs = [(0, 1), (1, 2), (2, 3), (3, 4), (4, 5)];
         let rest = [0.2, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
-        assert_eq!(sleepers.mark(&pairs, &rest, 0.5), 4);
+        assert_eq!(sleepers.mark(&pairs, &rest, 0.5, &held), 4);
         assert_eq!(
             sleepers.asleep,
             [false, false, false, true, true, true, true]
@@ -195,16 +275,51 @@ mod tests {
         // the same marks whatever the order of the pairs
         let reversed = [(4, 5), (3, 4), (2, 3), (1, 2), (0, 1)];
         let mut again = Sleepers::default();
-        again.mark(&reversed, &rest, 0.5);
+        again.mark(&reversed, &rest, 0.5, &held);
         assert_eq!(again.asleep, sleepers.asleep);
         // everything at rest: everything sleeps
-        assert_eq!(sleepers.mark(&pairs, &[1.0; 7], 0.5), 7);
+        assert_eq!(sleepers.mark(&pairs, &[1.0; 7], 0.5, &held), 7);
+        // 6 held up by nothing, 5 resting on 4: 6 stays awake
+        let held = Support {
+            on_plane: &|s| s < 6,
+            in_pair: &|k| [false, k == 4],
+        };
+        sleepers.mark(&pairs, &[1.0; 7], 0.5, &held);
+        assert_eq!(sleepers.asleep, [true, true, true, true, true, true, false]);
+        let alone = Support {
+            on_plane: &|s| s != 5,
+            in_pair: &|_| [false, false],
+        };
+        sleepers.mark(&pairs, &[1.0; 7], 0.5, &alone);
+        assert!(!sleepers.sleeps(5), "5 rests on nothing");
+    }
+
+    #[test]
+    fn particles_rest_on_what_touches_them_from_below() {
+        let up = DVec2::Y;
+        let (a, b) = (DVec2::ZERO, DVec2::new(0.6, 1.9));
+        assert_eq!(rests_on(b, a, 1.0, 1.0, up), [true, false]);
+        assert_eq!(rests_on(a, b, 1.0, 1.0, up), [false, true]);
+        // a gap of 1 % of r: nothing rests
+        let c = DVec2::new(0.0, 2.01);
+        assert_eq!(rests_on(c, a, 1.0, 1.0, up), [false, false]);
+        // without gravity everything is held
+        assert_eq!(rests_on(c, a, 1.0, 1.0, DVec2::ZERO), [true, true]);
+        let floor = crate::plane::Plane::new(DVec2::ZERO, up, 0.5).unwrap();
+        assert!(rests_on_plane(DVec2::new(3.0, 1.0), 1.0, &[floor], up));
+        assert!(!rests_on_plane(DVec2::new(3.0, 1.02), 1.0, &[floor], up));
+        let wall = crate::plane::Plane::new(DVec2::ZERO, DVec2::X, 0.5).unwrap();
+        assert!(!rests_on_plane(DVec2::new(1.0, 5.0), 1.0, &[wall], up));
     }
 
     #[test]
     fn nobody_sleeps_before_the_sleep_time() {
         let mut sleepers = Sleepers::default();
-        assert_eq!(sleepers.mark(&[(0, 1)], &[0.4, 0.49], 0.5), 0);
+        let held = Support {
+            on_plane: &|_| true,
+            in_pair: &|_| [true, true],
+        };
+        assert_eq!(sleepers.mark(&[(0, 1)], &[0.4, 0.49], 0.5, &held), 0);
         assert!(!sleepers.sleeps(0));
     }
 

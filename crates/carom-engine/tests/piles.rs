@@ -146,7 +146,7 @@ fn a_deep_3d_pour_comes_to_rest_without_sinking_into_itself() {
 /// Target 4, wider: 5000 spheres poured into a 24 x 24 shaft come to rest, asleep, by step
 /// 1200 with the overlaps of target 1. With piles asleep only whole (as islands), this test
 /// fails: a few spheres are always moving somewhere in the pile (the 5000-sphere pour of
-/// docs/benchmarks.md, much like this one, slept from step 2974 then; part by part, from 619).
+/// docs/benchmarks.md, much like this one, slept from step 2974 then; part by part, from 692).
 #[test]
 fn a_wide_3d_pour_falls_asleep_part_by_part() {
     let mut rng = Lcg::new(5000);

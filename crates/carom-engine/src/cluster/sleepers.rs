@@ -7,8 +7,9 @@
 //! ranks, and its own slots may be reached by earlier ranks' candidates. Then, only when some
 //! particle anywhere has rested long enough:
 //!
-//! 1. each rank tells the owner of every foreign slot it reaches that it reaches it (one
-//!    all-to-all), so every owner knows which of its slots each rank asks about;
+//! 1. each rank tells the owner of every foreign slot it reaches that it reaches it, and
+//!    whether one of its own slots holds it up (one all-to-all), so every owner knows which
+//!    of its slots each rank asks about, and what holds each up;
 //! 2. for each hop, every rank sends each other rank whether the slots that rank asks about
 //!    are awake, and for each slot of that rank it reaches, whether an awake slot of its own
 //!    reaches it (one all-to-all per hop); each rank then marks its own slots exactly as one
@@ -24,7 +25,7 @@ use super::traffic::{Link, TrafficKind};
 use super::transport::Transport;
 use super::wire::{Reader, Writer};
 use crate::broadphase::Pair;
-use crate::sleep::WAKE_HOPS;
+use crate::sleep::{Support, WAKE_HOPS};
 
 /// This step's sleeping slots of one rank, and reused space.
 #[derive(Debug, Default)]
@@ -46,12 +47,16 @@ pub(super) struct SplitSleepers {
     reached: Vec<bool>,
     /// Per own slot: an awake slot of an earlier rank reaches it (scratch).
     from_earlier: Vec<bool>,
+    /// Per own slot, then per foreign slot: something holds it up (scratch; see
+    /// [`Support`]).
+    held: Vec<bool>,
 }
 
 impl SplitSleepers {
     /// Marks this step's sleeping own slots from `pairs` (slots relative to `first_slot`, the
     /// lower one own) and the own slots' rest times, and learns which foreign slots `pairs`
     /// reach sleep. Collective. Returns the own count.
+    #[allow(clippy::too_many_arguments)]
     pub fn mark<T: Transport + ?Sized>(
         &mut self,
         link: &mut Link<'_, T>,
@@ -60,6 +65,7 @@ impl SplitSleepers {
         pairs: &[Pair],
         rest: &[f64],
         time: f64,
+        support: &Support<'_>,
     ) -> usize {
         let own = rest.len();
         self.asleep.clear();
@@ -75,21 +81,33 @@ impl SplitSleepers {
             .extend(pairs.iter().map(|&(_, j)| j).filter(|&j| j as usize >= own));
         self.foreign.sort_unstable();
         self.foreign.dedup();
+        // what holds each slot up (see `Support`); the owners of foreign slots learn it below
+        self.held.clear();
+        self.held.extend((0..own).map(|s| (support.on_plane)(s)));
+        self.held.resize(own + self.foreign.len(), false);
+        for (k, &(i, j)) in pairs.iter().enumerate() {
+            let [i_held, j_held] = (support.in_pair)(k);
+            self.held[i as usize] |= i_held;
+            let j = self.index(j, own);
+            self.held[j] |= j_held;
+        }
         self.ask_owners(link, partition, first_slot, own);
         self.awake.clear();
         self.awake.extend(rest.iter().map(|&t| t < time));
         self.awake.resize(own + self.foreign.len(), false);
-        // (one exchange more than hops: the last brings the foreign slots' final marks)
-        for hop in 0..=WAKE_HOPS {
+        for _ in 0..WAKE_HOPS {
             self.exchange_marks(link, partition, first_slot, pairs, own);
-            if hop < WAKE_HOPS {
-                self.spread(pairs, own);
-            }
+            self.spread(pairs, own);
         }
-        for (asleep, &awake) in self.asleep.iter_mut().zip(&self.awake) {
-            *asleep = !awake;
+        for ((asleep, &awake), &held) in self.asleep.iter_mut().zip(&self.awake).zip(&self.held) {
+            *asleep = !awake && held;
         }
         self.count = self.asleep.iter().filter(|&&a| a).count();
+        // (one exchange more: the foreign slots' final marks, as their owners decided them)
+        for (awake, &asleep) in self.awake.iter_mut().zip(&self.asleep) {
+            *awake = !asleep;
+        }
+        self.exchange_marks(link, partition, first_slot, pairs, own);
         self.foreign_asleep
             .extend(self.awake[own..].iter().map(|&awake| !awake));
         self.count
@@ -139,9 +157,11 @@ impl SplitSleepers {
         own: usize,
     ) {
         let mut outgoing: Vec<Writer> = (0..link.ranks()).map(|_| Writer::default()).collect();
-        for &j in &self.foreign {
+        for (k, &j) in self.foreign.iter().enumerate() {
             let g = first_slot + j as usize;
-            outgoing[partition.owner_of_slot(g)].u64(g as u64);
+            outgoing[partition.owner_of_slot(g)]
+                .u64(g as u64)
+                .u32(self.held[own + k] as u32);
         }
         let incoming = link.exchange(TrafficKind::Sleep, outgoing);
         self.asked.resize_with(incoming.len(), Vec::new);
@@ -152,6 +172,7 @@ impl SplitSleepers {
                 let g = r.u64() as usize;
                 debug_assert!((first_slot..first_slot + own).contains(&g));
                 asked.push((g - first_slot) as u32);
+                self.held[g - first_slot] |= r.u32() != 0;
             }
         }
     }

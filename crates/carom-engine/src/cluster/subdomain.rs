@@ -764,6 +764,19 @@ impl<V: Vector> Subdomain<V> {
         let own = self.own;
         self.start.clear();
         self.start.extend_from_slice(&self.window.position[..own]);
+        let up = sleep::up(self.config.gravity);
+        let (search, planes, candidates) = (&self.search, &self.planes, &self.candidates);
+        let on_plane =
+            |s: usize| sleep::rests_on_plane(search.position[s], search.radius[s], planes, up);
+        let in_pair = |k: usize| {
+            let (ki, kj) = (candidates[k].1 .0 as usize, candidates[k].1 .1 as usize);
+            let (xi, xj) = (search.position[ki], search.position[kj]);
+            sleep::rests_on(xi, xj, search.radius[ki], search.radius[kj], up)
+        };
+        let support = sleep::Support {
+            on_plane: &on_plane,
+            in_pair: &in_pair,
+        };
         let asleep = self.sleepers.mark(
             link,
             &self.partition,
@@ -771,6 +784,7 @@ impl<V: Vector> Subdomain<V> {
             &self.pairs,
             &self.rest,
             settings.time,
+            &support,
         );
         if asleep == 0 {
             return;

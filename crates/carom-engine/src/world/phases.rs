@@ -8,7 +8,7 @@ use crate::observe;
 use crate::particles::Particles;
 use crate::periodic;
 use crate::schedule::{Alone, PlaneContact};
-use crate::sleep::{self, Sleepers};
+use crate::sleep::{self, Sleepers, Support};
 use crate::solver::{self, Contacts, Moving, PlaneRow, Row, VelocitySolve, WorkList};
 use crate::step::Phases;
 use crate::timing::PhaseTimes;
@@ -293,7 +293,23 @@ impl<V: Vector> World<V> {
     /// between two of them from this step's candidates; keeps the positions the step starts
     /// from.
     fn mark_sleepers(&mut self, time: f64) {
-        let asleep = self.sleepers.mark(&self.pairs, &self.rest, time);
+        let (p, planes, periodic) = (&self.store, &self.planes, self.periodic);
+        let up = sleep::up(self.config.gravity);
+        let on_plane = |s: usize| sleep::rests_on_plane(p.position[s], p.radius[s], planes, up);
+        let pairs = &self.pairs;
+        let in_pair = |k: usize| {
+            let (i, j) = (pairs[k].0 as usize, pairs[k].1 as usize);
+            let (xi, mut xj) = (p.position[i], p.position[j]);
+            if let Some(q) = &periodic {
+                xj = q.image(xi, xj);
+            }
+            sleep::rests_on(xi, xj, p.radius[i], p.radius[j], up)
+        };
+        let support = Support {
+            on_plane: &on_plane,
+            in_pair: &in_pair,
+        };
+        let asleep = self.sleepers.mark(&self.pairs, &self.rest, time, &support);
         self.start.clear();
         self.start.extend_from_slice(&self.store.position);
         self.asleep_overlap = 0.0;
