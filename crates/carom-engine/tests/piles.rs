@@ -211,23 +211,38 @@ fn a_column_of_100_discs_holds_for_a_minute() {
 
 /// A ball dropped onto a pile at rest bounces off it nearly as off a floor: its rebound speed
 /// is between 0.6 and 1.1 times `k` times its impact speed (the pile gives a little within the
-/// step's sweeps).
+/// step's sweeps). In 3D the pile is asleep when the ball arrives, so this is also the ball
+/// waking the part of a sleeping pile it lands on.
 #[test]
 fn a_ball_dropped_on_a_resting_pile_bounces_as_its_k_says() {
-    let mut w = pour::<DVec2>(150, 25.0, 13);
+    ball_bounces_off(pour::<DVec2>(150, 25.0, 13), 25.0);
+}
+
+#[test]
+fn a_ball_dropped_on_a_resting_3d_pile_bounces_as_its_k_says() {
+    let mut w = pour::<DVec3>(400, 12.0, 12);
+    settle(&mut w, 1200, 0);
+    assert_eq!(w.asleep(), w.len(), "the pile must be asleep");
+    ball_bounces_off(w, 12.0);
+}
+
+/// Settles `w` (a pile in a walled box of half-size `half`), drops a ball on its highest
+/// particle and checks the rebound (see above).
+fn ball_bounces_off<V: Vector>(mut w: World<V>, half: f64) {
     settle(&mut w, 1200, 0);
     assert!(v_rms(&w) < 0.01 * G.sqrt());
-    // the highest disc of the pile, and a ball 6 radii above it
+    // the highest particle of the pile, and a ball 6 radii above it
     let p = w.particles();
+    let height = |x: V| x.get(1);
     let top = (0..p.len())
-        .max_by(|&a, &b| p.positions()[a].y.total_cmp(&p.positions()[b].y))
+        .max_by(|&a, &b| height(p.positions()[a]).total_cmp(&height(p.positions()[b])))
         .unwrap();
     let below = p.positions()[top];
-    let mut b = World::<DVec2>::builder()
+    let mut b = World::<V>::builder()
         .dt(DT)
-        .gravity(DVec2::new(0.0, -G))
+        .gravity(V::from_slice(&[0.0, -G, 0.0]))
         .restitution(0.5)
-        .domain(Aabb::new(DVec2::splat(-25.0), DVec2::splat(25.0)).unwrap())
+        .domain(Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap())
         .walls(0.5);
     for i in 0..p.len() {
         b = b.particle(p.positions()[i], p.velocities()[i], 1.0, 1.0);
@@ -240,8 +255,8 @@ fn a_ball_dropped_on_a_resting_pile_bounces_as_its_k_says() {
     }
     let mut w = b
         .particle(
-            below + DVec2::new(0.0, 8.0),
-            DVec2::new(0.0, -8.0),
+            below + V::from_slice(&[0.0, 8.0, 0.0]),
+            V::from_slice(&[0.0, -8.0, 0.0]),
             1.0,
             1.0,
         )
@@ -250,9 +265,9 @@ fn a_ball_dropped_on_a_resting_pile_bounces_as_its_k_says() {
         .unwrap();
     let mut impact = 0.0;
     for _ in 0..120 {
-        let before = w.particle(ball).1.y;
+        let before = height(w.particle(ball).1);
         w.step();
-        let after = w.particle(ball).1.y;
+        let after = height(w.particle(ball).1);
         if before < 0.0 && after > 0.0 {
             impact = -before;
             let rebound = after;
