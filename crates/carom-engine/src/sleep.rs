@@ -12,8 +12,9 @@
 //! and held up by something (a plane facing up or a particle below it, within
 //! [`SUPPORT_GAP`] of touching), is *asleep* for the step: its velocity is set to zero, and
 //! gravity, the solver and the move skip it; its contacts with other sleepers keep their
-//! remembered impulses for when it wakes. An awake particle meets a sleeping one as a fixed obstacle (of infinite mass, like a plane),
-//! so what rests on a sleeping part of a pile is held by it. Planes do not connect. So
+//! remembered impulses for when it wakes. An awake particle meets a sleeping one as a fixed
+//! obstacle (of infinite mass, like a plane), so what rests on a sleeping part of a pile is
+//! held by it. Planes do not connect. So
 //! whatever comes near a sleeping pile (a falling ball within reach of it) wakes the part of it
 //! within reach, and that part falls asleep again once everything near it has rested for the
 //! sleep time; an avalanche on one slope of a pile does not keep the rest of it awake.
@@ -113,6 +114,58 @@ pub(crate) fn rests_on_plane<V: Vector>(
             .any(|p| p.normal().dot(up) > 0.0 && p.signed_distance(x) < r + SUPPORT_GAP * r)
 }
 
+/// One hop: marks in `reached` both slots of every pair in `pairs` with either one `awake`.
+/// A pair's `i` and `index(j)` are its places in `awake`; places past the end of `reached`
+/// (another process's slots) are not marked.
+pub(crate) fn spread(
+    pairs: &[Pair],
+    awake: &[bool],
+    reached: &mut [bool],
+    index: impl Fn(u32) -> usize,
+) {
+    for &(i, j) in pairs {
+        let (i, j) = (i as usize, index(j));
+        if awake[i] || awake[j] {
+            reached[i] = true;
+            if let Some(r) = reached.get_mut(j) {
+                *r = true;
+            }
+        }
+    }
+}
+
+/// Fills `held` (`places` long) with what `support` says holds each slot up: the `own`
+/// first from their planes, and both slots of every pair (`i` and `index(j)`, as in
+/// [`spread`]).
+pub(crate) fn held_up(
+    support: &Support<'_>,
+    pairs: &[Pair],
+    own: usize,
+    places: usize,
+    held: &mut Vec<bool>,
+    index: impl Fn(u32) -> usize,
+) {
+    held.clear();
+    held.extend((0..own).map(|s| (support.on_plane)(s)));
+    held.resize(places, false);
+    for (k, &(i, j)) in pairs.iter().enumerate() {
+        let [i_held, j_held] = (support.in_pair)(k);
+        held[i as usize] |= i_held;
+        held[index(j)] |= j_held;
+    }
+}
+
+/// Marks `asleep` every slot neither `awake` nor unheld (see [`Support`]), and returns how
+/// many.
+pub(crate) fn put_to_sleep(asleep: &mut [bool], awake: &[bool], held: &[bool]) -> usize {
+    let mut count = 0;
+    for ((asleep, &awake), &held) in asleep.iter_mut().zip(awake).zip(held) {
+        *asleep = !awake && held;
+        count += *asleep as usize;
+    }
+    count
+}
+
 /// Particles per parallel task when updating rest times.
 const CHUNK: usize = 8192;
 
@@ -134,6 +187,8 @@ pub(crate) struct Sleepers {
     awake: Vec<bool>,
     /// The next hop's marks (scratch).
     reached: Vec<bool>,
+    /// Per slot: something holds it up (scratch; see [`Support`]).
+    held: Vec<bool>,
     /// Per slot: asleep this step.
     pub asleep: Vec<bool>,
     /// How many slots are asleep this step.
@@ -159,35 +214,18 @@ impl Sleepers {
         if !rest.iter().any(|&t| t >= time) {
             return 0;
         }
-        // (`awake` and `reached` take turns: each hop reads the last one's marks alone, so the
-        // result does not depend on the order of the pairs)
         self.awake.clear();
         self.awake.extend(rest.iter().map(|&t| t < time));
+        // (`awake` and `reached` take turns: each hop reads the last one's marks alone, so the
+        // result does not depend on the order of the pairs)
         for _ in 0..WAKE_HOPS {
             self.reached.clear();
             self.reached.extend_from_slice(&self.awake);
-            for &(i, j) in pairs {
-                let (i, j) = (i as usize, j as usize);
-                if self.awake[i] || self.awake[j] {
-                    self.reached[i] = true;
-                    self.reached[j] = true;
-                }
-            }
+            spread(pairs, &self.awake, &mut self.reached, |j| j as usize);
             std::mem::swap(&mut self.awake, &mut self.reached);
         }
-        // (a particle nothing holds up does not sleep: see `Support`)
-        self.reached.clear();
-        self.reached.extend((0..n).map(|s| (support.on_plane)(s)));
-        for (k, &(i, j)) in pairs.iter().enumerate() {
-            let [i_held, j_held] = (support.in_pair)(k);
-            self.reached[i as usize] |= i_held;
-            self.reached[j as usize] |= j_held;
-        }
-        for ((asleep, &awake), &held) in self.asleep.iter_mut().zip(&self.awake).zip(&self.reached)
-        {
-            *asleep = !awake && held;
-        }
-        self.count = self.asleep.iter().filter(|&&a| a).count();
+        held_up(support, pairs, n, n, &mut self.held, |j| j as usize);
+        self.count = put_to_sleep(&mut self.asleep, &self.awake, &self.held);
         self.count
     }
 

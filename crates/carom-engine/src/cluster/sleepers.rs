@@ -25,7 +25,7 @@ use super::traffic::{Link, TrafficKind};
 use super::transport::Transport;
 use super::wire::{Reader, Writer};
 use crate::broadphase::Pair;
-use crate::sleep::{Support, WAKE_HOPS};
+use crate::sleep::{self, Support, WAKE_HOPS};
 
 /// This step's sleeping slots of one rank, and reused space.
 #[derive(Debug, Default)]
@@ -82,15 +82,10 @@ impl SplitSleepers {
         self.foreign.sort_unstable();
         self.foreign.dedup();
         // what holds each slot up (see `Support`); the owners of foreign slots learn it below
-        self.held.clear();
-        self.held.extend((0..own).map(|s| (support.on_plane)(s)));
-        self.held.resize(own + self.foreign.len(), false);
-        for (k, &(i, j)) in pairs.iter().enumerate() {
-            let [i_held, j_held] = (support.in_pair)(k);
-            self.held[i as usize] |= i_held;
-            let j = self.index(j, own);
-            self.held[j] |= j_held;
-        }
+        let places = own + self.foreign.len();
+        let foreign = &self.foreign;
+        let index = |j: u32| index_of(foreign, j, own);
+        sleep::held_up(support, pairs, own, places, &mut self.held, index);
         self.ask_owners(link, partition, first_slot, own);
         self.awake.clear();
         self.awake.extend(rest.iter().map(|&t| t < time));
@@ -99,10 +94,7 @@ impl SplitSleepers {
             self.exchange_marks(link, partition, first_slot, pairs, own);
             self.spread(pairs, own);
         }
-        for ((asleep, &awake), &held) in self.asleep.iter_mut().zip(&self.awake).zip(&self.held) {
-            *asleep = !awake && held;
-        }
-        self.count = self.asleep.iter().filter(|&&a| a).count();
+        self.count = sleep::put_to_sleep(&mut self.asleep, &self.awake, &self.held);
         // (one exchange more: the foreign slots' final marks, as their owners decided them)
         for (awake, &asleep) in self.awake.iter_mut().zip(&self.asleep) {
             *awake = !asleep;
@@ -141,11 +133,7 @@ impl SplitSleepers {
 
     /// Index in `awake` of slot `j` (relative; foreign ones after the own ones).
     fn index(&self, j: u32, own: usize) -> usize {
-        if (j as usize) < own {
-            j as usize
-        } else {
-            own + self.foreign.binary_search(&j).expect("a foreign slot")
-        }
+        index_of(&self.foreign, j, own)
     }
 
     /// Step 1 of the module notes.
@@ -235,15 +223,19 @@ impl SplitSleepers {
                 .zip(&self.from_earlier)
                 .map(|(&awake, &reached)| awake || reached),
         );
-        for &(i, j) in pairs {
-            let (i, j) = (i as usize, self.index(j, own));
-            if self.awake[i] || self.awake[j] {
-                self.reached[i] = true;
-                if j < own {
-                    self.reached[j] = true;
-                }
-            }
-        }
+        let foreign = &self.foreign;
+        let index = |j: u32| index_of(foreign, j, own);
+        sleep::spread(pairs, &self.awake, &mut self.reached, index);
         self.awake[..own].copy_from_slice(&self.reached);
+    }
+}
+
+/// Index in a rank's marks of slot `j` (relative to its first own slot): own slots first,
+/// then the `foreign` ones (sorted) its candidates reach.
+fn index_of(foreign: &[u32], j: u32, own: usize) -> usize {
+    if (j as usize) < own {
+        j as usize
+    } else {
+        own + foreign.binary_search(&j).expect("a foreign slot")
     }
 }
