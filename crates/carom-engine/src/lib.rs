@@ -47,6 +47,7 @@ pub mod cluster;
 pub mod diagnostics;
 pub mod domain;
 pub mod error;
+mod frontier;
 pub mod grid;
 pub mod hash;
 pub mod memory;

@@ -29,8 +29,11 @@
 //! and a second visit with unchanged particles changes nothing (the rules' dead bands cover
 //! rounding), so skipping a contact gives the very bits visiting it would: the work list changes the cost of a sweep, never its result, and a
 //! process that visits every contact (the cluster's) stays bit-identical to one that does not.
+//! A sweep finds the contacts of its changed particles through an index by particle
+//! ([`crate::frontier`]) instead of scanning every contact, with the same result.
 
 use crate::broadphase::Pair;
+use crate::frontier::{Frontier, Stamps};
 use crate::solver::Row;
 use crate::vector::Vector;
 
@@ -53,6 +56,8 @@ pub(crate) struct Blocks {
     first_block: usize,
     /// Run blocks on the thread pool (otherwise serially; same result).
     parallel: bool,
+    /// The blocks' contacts by particle, for the work lists (when indexed).
+    frontier: Frontier,
 }
 
 /// What one application of a rule did.
@@ -122,27 +127,17 @@ impl Visit {
     /// Whether the contact of particles `i` and `j` is visited; `stamps` empty means no work
     /// list (every contact is).
     #[inline]
-    fn wants(self, stamps: &[u32], i: usize, j: usize) -> bool {
-        stamps.is_empty() || stamps[i].max(stamps[j]) >= self.since
+    fn wants(self, stamps: &Stamps, i: usize, j: usize) -> bool {
+        stamps.is_empty() || stamps.get(i).max(stamps.get(j)) >= self.since
     }
 
     /// Records that the rule changed particles `i` and `j`.
     #[inline]
-    fn stamp(self, stamps: &mut [u32], i: usize, j: usize) {
+    fn stamp(self, stamps: &mut Stamps, i: usize, j: usize) {
         if self.now != 0 && !stamps.is_empty() {
-            stamps[i] = self.now;
-            stamps[j] = self.now;
+            stamps.set(i, self.now);
+            stamps.set(j, self.now);
         }
-    }
-}
-
-/// `stamps` split at `at` (an empty slice, the "no work list" case, splits into two empties).
-#[inline]
-fn split_stamps(stamps: &mut [u32], at: usize) -> (&mut [u32], &mut [u32]) {
-    if stamps.is_empty() {
-        (Default::default(), Default::default())
-    } else {
-        stamps.split_at_mut(at)
     }
 }
 
@@ -159,6 +154,8 @@ impl Blocks {
         first_block: usize,
     ) {
         self.size = size.max(1);
+        // (the work lists' stamp groups split at block boundaries)
+        debug_assert!(self.size % crate::frontier::GROUP == 0 || n <= self.size);
         self.parallel = parallel;
         self.first_block = first_block;
         let count = n.div_ceil(self.size).max(1);
@@ -172,6 +169,7 @@ impl Blocks {
             self.plane_start
                 .push(plane_contacts.partition_point(|&(i, _)| i < first_slot));
         }
+        self.frontier.clear();
         self.leftovers.clear();
         for b in 0..count {
             let limit = ((b + 2) * size) as u32;
@@ -182,6 +180,14 @@ impl Blocks {
                 }
             }
         }
+    }
+
+    /// Indexes the contacts `pairs` (those of the last [`Blocks::plan`]) by particle, so that
+    /// sweeps with a work list visit the changed contacts without scanning for them (see
+    /// [`crate::frontier`]; the same result either way).
+    pub fn index_contacts(&mut self, n: usize, pairs: &[Pair]) {
+        self.frontier
+            .index(pairs, &self.pair_start, self.size, n, self.parallel);
     }
 
     /// Whether the blocks run on the thread pool.
@@ -202,7 +208,7 @@ impl Blocks {
         &self,
         exchange: &mut E,
         data: &mut [V],
-        stamps: &mut [u32],
+        stamps: &mut Stamps,
         visit: Visit,
         pairs: &[Pair],
         rows: &mut [Row<V>],
@@ -212,7 +218,16 @@ impl Blocks {
         let mut changed = 0;
         for parity in 0..2 {
             exchange.before_blocks(parity, data);
-            changed += self.run_parity(data, stamps, visit, pairs, rows, parity, reverse, rule);
+            changed += self.run_parity(
+                data,
+                stamps.reborrow(),
+                visit,
+                pairs,
+                rows,
+                parity,
+                reverse,
+                rule,
+            );
             exchange.after_blocks(parity, data);
         }
         let leftovers = exchange.leftovers(self, data, stamps, visit, pairs, rows, rule);
@@ -231,7 +246,7 @@ impl Blocks {
         self.sweep_pairs(
             exchange,
             data,
-            &mut [],
+            &mut Stamps::none(),
             Visit::ALL,
             pairs,
             rows,
@@ -245,7 +260,7 @@ impl Blocks {
     fn run_parity<V: Vector>(
         &self,
         data: &mut [V],
-        stamps: &mut [u32],
+        stamps: Stamps,
         visit: Visit,
         pairs: &[Pair],
         rows: &mut [Row<V>],
@@ -267,22 +282,46 @@ impl Blocks {
         let work = |c: usize,
                     slot_base: usize,
                     slots: &mut [V],
-                    stamps: &mut [u32],
+                    mut stamps: Stamps,
                     row_base: usize,
                     span_rows: &mut [Row<V>]| {
             let block = parity + 2 * c;
             let limit = slot_base + slots.len();
             let mine = self.pair_start[block]..self.pair_start[block + 1];
             let mut changed = 0;
+            if visit.since > 0 && !stamps.is_empty() && self.frontier.ready() {
+                let walked = self.frontier.walk(
+                    block,
+                    mine.len(),
+                    reverse,
+                    &mut stamps,
+                    visit.since,
+                    |k, stamps| {
+                        let (i, j) = pairs[k];
+                        let (i, j) = (i as usize - slot_base, j as usize - slot_base);
+                        let (a, b) = pair_mut(slots, i, j);
+                        let change = rule(&mut span_rows[k - row_base], a, b);
+                        if change == Change::Nothing {
+                            return None;
+                        }
+                        visit.stamp(stamps, i, j);
+                        changed += change.count();
+                        Some((i, j))
+                    },
+                );
+                if walked {
+                    return changed;
+                }
+            }
             let mut one = |k: usize| {
                 let (i, j) = pairs[k];
                 let (i, j) = (i as usize - slot_base, j as usize - slot_base);
                 // (pairs reaching beyond the span are leftovers)
-                if j < limit - slot_base && visit.wants(stamps, i, j) {
+                if j < limit - slot_base && visit.wants(&stamps, i, j) {
                     let (a, b) = pair_mut(slots, i, j);
                     let change = rule(&mut span_rows[k - row_base], a, b);
                     if change != Change::Nothing {
-                        visit.stamp(stamps, i, j);
+                        visit.stamp(&mut stamps, i, j);
                         changed += change.count();
                     }
                 }
@@ -301,7 +340,7 @@ impl Blocks {
             &slot,
             &row,
             &mut data[s0..],
-            split_stamps(stamps, s0).1,
+            stamps.split_at(s0).1,
             &mut rows[r0..row(spans)],
             &work,
         )
@@ -313,7 +352,7 @@ impl Blocks {
     pub fn run_planes<V: Send, R: Send>(
         &self,
         data: &mut [V],
-        stamps: &mut [u32],
+        stamps: &mut Stamps,
         visit: Visit,
         plane_contacts: &[PlaneContact],
         plane_rows: &mut [R],
@@ -328,16 +367,16 @@ impl Blocks {
         let work = |_: usize,
                     slot_base: usize,
                     slots: &mut [V],
-                    stamps: &mut [u32],
+                    mut stamps: Stamps,
                     row_base: usize,
                     rows: &mut [R]| {
             let mut changed = 0;
             for (k, r) in rows.iter_mut().enumerate() {
                 let i = plane_contacts[row_base + k].0 as usize - slot_base;
-                if visit.wants(stamps, i, i) {
+                if visit.wants(&stamps, i, i) {
                     let change = rule(r, &mut slots[i]);
                     if change != Change::Nothing {
-                        visit.stamp(stamps, i, i);
+                        visit.stamp(&mut stamps, i, i);
                         changed += change.count();
                     }
                 }
@@ -350,7 +389,7 @@ impl Blocks {
             &slot,
             &row,
             data,
-            stamps,
+            stamps.reborrow(),
             &mut plane_rows[..all],
             &work,
         )
@@ -364,7 +403,14 @@ impl Blocks {
         plane_rows: &mut [R],
         rule: &impl PlaneRule<V, R>,
     ) -> u64 {
-        self.run_planes(data, &mut [], Visit::ALL, plane_contacts, plane_rows, rule)
+        self.run_planes(
+            data,
+            &mut Stamps::none(),
+            Visit::ALL,
+            plane_contacts,
+            plane_rows,
+            rule,
+        )
     }
 }
 
@@ -380,9 +426,9 @@ fn split_run<T: Send, R: Send>(
     slot: &(impl Fn(usize) -> usize + Sync),
     row: &(impl Fn(usize) -> usize + Sync),
     data: &mut [T],
-    stamps: &mut [u32],
+    stamps: Stamps,
     rows: &mut [R],
-    work: &(impl Fn(usize, usize, &mut [T], &mut [u32], usize, &mut [R]) -> u64 + Sync),
+    work: &(impl Fn(usize, usize, &mut [T], Stamps, usize, &mut [R]) -> u64 + Sync),
 ) -> u64 {
     if !parallel || spans.len() <= 1 {
         let mut total = 0;
@@ -391,7 +437,7 @@ fn split_run<T: Send, R: Send>(
             let (s, r) = (slot(c), row(c));
             let (len, count) = (slot(c + 1) - s, row(c + 1) - r);
             let (here, rest) = std::mem::take(&mut data).split_at_mut(len);
-            let (here_stamps, rest_stamps) = split_stamps(std::mem::take(&mut stamps), len);
+            let (here_stamps, rest_stamps) = std::mem::take(&mut stamps).split_at(len);
             let (here_rows, rest_rows) = std::mem::take(&mut rows).split_at_mut(count);
             total += work(c, s, here, here_stamps, r, here_rows);
             (data, stamps, rows) = (rest, rest_stamps, rest_rows);
@@ -401,7 +447,7 @@ fn split_run<T: Send, R: Send>(
     let (s0, r0) = (slot(spans.start), row(spans.start));
     let mid = spans.start + spans.len() / 2;
     let (left_data, right_data) = data.split_at_mut(slot(mid) - s0);
-    let (left_stamps, right_stamps) = split_stamps(stamps, slot(mid) - s0);
+    let (left_stamps, right_stamps) = stamps.split_at(slot(mid) - s0);
     let (left_rows, right_rows) = rows.split_at_mut(row(mid) - r0);
     let (a, b) = rayon::join(
         || {
@@ -454,7 +500,7 @@ pub(crate) trait Exchange<V: Vector> {
         &mut self,
         blocks: &Blocks,
         data: &mut [V],
-        stamps: &mut [u32],
+        stamps: &mut Stamps,
         visit: Visit,
         pairs: &[Pair],
         rows: &mut [Row<V>],
@@ -484,7 +530,7 @@ impl<V: Vector> Exchange<V> for Alone {
         &mut self,
         blocks: &Blocks,
         data: &mut [V],
-        stamps: &mut [u32],
+        stamps: &mut Stamps,
         visit: Visit,
         pairs: &[Pair],
         rows: &mut [Row<V>],

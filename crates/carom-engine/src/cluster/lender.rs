@@ -7,6 +7,7 @@ use super::traffic::{Link, TrafficKind};
 use super::transport::Transport;
 use super::wire::{Reader, Writer};
 use crate::broadphase::Pair;
+use crate::frontier::Stamps;
 use crate::schedule::{pair_mut, Blocks, Change, Exchange, PairRule, Visit};
 use crate::solver::Row;
 use crate::vector::Vector;
@@ -224,7 +225,7 @@ impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
         &mut self,
         _blocks: &Blocks,
         data: &mut [V],
-        _stamps: &mut [u32],
+        _stamps: &mut Stamps,
         _visit: Visit,
         _pairs: &[Pair],
         _rows: &mut [Row<V>],

@@ -63,7 +63,7 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
         let (in_blocks, leftovers) = blocks.sweep_pairs(
             exchange,
             position,
-            c.work.stamps,
+            &mut c.work.stamps,
             this,
             c.pairs,
             c.rows,
@@ -72,7 +72,7 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
         );
         let on_planes = blocks.run_planes(
             position,
-            c.work.stamps,
+            &mut c.work.stamps,
             this,
             c.plane_contacts,
             c.plane_rows,

@@ -3,6 +3,7 @@
 
 use super::settings::*;
 use crate::broadphase::Pair;
+use crate::frontier::Stamps;
 use crate::periodic::apply_shift;
 use crate::plane::Plane;
 use crate::response::{contact_normal, is_overlapping};
@@ -279,7 +280,7 @@ pub(crate) struct Contacts<'a, V> {
 /// the same result.
 pub(crate) struct WorkList<'a> {
     /// One per slot of the data the sweeps run on, or none.
-    pub stamps: &'a mut [u32],
+    pub stamps: Stamps<'a>,
     /// The number of the last sweep (kept between steps; stamps below the current pass's
     /// first sweep mean nothing).
     pub clock: &'a mut u32,
@@ -293,7 +294,7 @@ impl WorkList<'_> {
             return Visit::ALL;
         }
         if previous.is_none() && *self.clock > u32::MAX / 2 {
-            self.stamps.fill(0);
+            self.stamps.clear();
             *self.clock = 0;
         }
         *self.clock += 1;

@@ -241,7 +241,7 @@ pub(super) fn relax<V: Vector, E: Exchange<V>>(
         let on_planes = if with_planes {
             blocks.run_planes(
                 velocity,
-                c.work.stamps,
+                &mut c.work.stamps,
                 this,
                 c.plane_contacts,
                 c.plane_rows,
@@ -256,7 +256,7 @@ pub(super) fn relax<V: Vector, E: Exchange<V>>(
         let (in_blocks, leftovers) = blocks.sweep_pairs(
             exchange,
             velocity,
-            c.work.stamps,
+            &mut c.work.stamps,
             this,
             c.pairs,
             c.rows,

@@ -286,6 +286,7 @@ impl<V: Vector> WorldBuilder<V> {
             unsorted_ids: Vec::new(),
             blocks: Blocks::default(),
             stamps: Vec::new(),
+            stamp_groups: Vec::new(),
             clock: 0,
             block_size: block_size(n, V::DIM),
             sorter: Sorter::default(),

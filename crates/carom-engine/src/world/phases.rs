@@ -3,6 +3,7 @@
 use super::*;
 use crate::broadphase::keep_headroom;
 use crate::diagnostics::StepStats;
+use crate::frontier::{self, Stamps};
 use crate::memory::Memory;
 use crate::observe;
 use crate::particles::Particles;
@@ -83,6 +84,7 @@ impl<V: Vector> Phases for World<V> {
             parallel,
             0,
         );
+        self.blocks.index_contacts(self.store.len(), &self.pairs);
         let rows_started = Instant::now();
         let p = &self.store;
         let periodic = self.periodic;
@@ -343,7 +345,9 @@ impl<V: Vector> World<V> {
 
     /// This step's contacts, for the solver.
     fn contacts_mut(&mut self) -> (Contacts<'_, V>, &mut Particles<V>, &Sleepers) {
-        self.stamps.resize(self.store.len(), 0);
+        let n = self.store.len();
+        self.stamps.resize(n, 0);
+        self.stamp_groups.resize(n.div_ceil(frontier::GROUP), 0);
         (
             Contacts {
                 pairs: &self.pairs,
@@ -353,7 +357,7 @@ impl<V: Vector> World<V> {
                 planes: &self.planes,
                 blocks: &self.blocks,
                 work: WorkList {
-                    stamps: &mut self.stamps,
+                    stamps: Stamps::new(&mut self.stamps, &mut self.stamp_groups),
                     clock: &mut self.clock,
                 },
             },

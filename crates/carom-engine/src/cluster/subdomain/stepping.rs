@@ -4,6 +4,7 @@ use crate::cluster::lender::Lender;
 use crate::cluster::traffic::Link;
 use crate::cluster::transport::Transport;
 use crate::diagnostics::StepStats;
+use crate::frontier::Stamps;
 use crate::memory::Memory;
 use crate::particles::Particles;
 use crate::schedule::Exchange;
@@ -49,7 +50,7 @@ impl<V: Vector, T: Transport + ?Sized> Stepping<'_, '_, '_, V, T> {
             blocks: &s.blocks,
             // (no work lists across processes: they would change the cost, not the result)
             work: WorkList {
-                stamps: &mut [],
+                stamps: Stamps::none(),
                 clock: &mut s.clock,
             },
         };

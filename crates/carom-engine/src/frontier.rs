@@ -1,0 +1,305 @@
+//! The work lists' frontier: a sweep after a pass's first visits only the contacts of the
+//! particles that changed, found through an index of each block's contacts by particle,
+//! instead of scanning every contact of the block for a changed particle.
+//!
+//! The result is the scan's, bit for bit (see [`crate::schedule`]): a scan visits contact `k`
+//! when, on reaching it, one of its particles is stamped at least `since`. Those are the
+//! contacts of the particles stamped at least `since` when the block starts, and the contacts
+//! after `k` (in the sweep's direction) of the particles the rule changed at `k`. The frontier
+//! visits exactly these, in the same order: a heap of contact indices, seeded with the first
+//! and fed with the second as the sweep goes. (Within one parity the blocks' slots are
+//! disjoint, so only the block itself changes its particles while it runs.)
+//!
+//! A falling gas of 10^6 discs makes about 45 such sweeps a step with a few hundred contacts
+//! still active; scanning all 10^6 contacts for them was a fifth of the step.
+
+use crate::broadphase::Pair;
+use rayon::prelude::*;
+use std::cell::RefCell;
+use std::collections::BinaryHeap;
+
+/// Slots per group of stamps (see [`Stamps`]); block boundaries are multiples of it.
+pub(crate) const GROUP: usize = 64;
+
+/// The work lists' stamps for a run of slots (see [`crate::schedule`]): per slot, the number
+/// of the last sweep that changed it, and per group of [`GROUP`] slots the largest of its
+/// slots' stamps, so that a sweep finds the changed slots without reading every stamp. Empty
+/// when there are no work lists.
+#[derive(Debug, Default)]
+pub(crate) struct Stamps<'a> {
+    slot: &'a mut [u32],
+    group: &'a mut [u32],
+}
+
+impl<'a> Stamps<'a> {
+    /// The stamps `slot` with their groups `group` (`slot.len()` divided by [`GROUP`],
+    /// rounded up; both zero or filled by this type's methods alone).
+    pub fn new(slot: &'a mut [u32], group: &'a mut [u32]) -> Self {
+        debug_assert_eq!(group.len(), slot.len().div_ceil(GROUP));
+        Self { slot, group }
+    }
+
+    /// No stamps: no work list.
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    /// True without work lists.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.slot.is_empty()
+    }
+
+    /// Slot `i`'s stamp.
+    #[inline]
+    pub fn get(&self, i: usize) -> u32 {
+        self.slot[i]
+    }
+
+    /// Stamps slot `i` with `now`, the newest sweep's number.
+    #[inline]
+    pub fn set(&mut self, i: usize, now: u32) {
+        self.slot[i] = now;
+        self.group[i / GROUP] = now;
+    }
+
+    /// Every stamp back to 0.
+    pub fn clear(&mut self) {
+        self.slot.fill(0);
+        self.group.fill(0);
+    }
+
+    /// The same stamps, borrowed anew.
+    #[inline]
+    pub fn reborrow(&mut self) -> Stamps<'_> {
+        Stamps {
+            slot: self.slot,
+            group: self.group,
+        }
+    }
+
+    /// Slots `..at` and `at..`; `at` is a multiple of [`GROUP`] or the end (none splits into
+    /// none).
+    #[inline]
+    pub fn split_at(self, at: usize) -> (Stamps<'a>, Stamps<'a>) {
+        if self.is_empty() {
+            return (Stamps::none(), Stamps::none());
+        }
+        debug_assert!(at % GROUP == 0 || at == self.slot.len());
+        let (a, b) = self.slot.split_at_mut(at);
+        let (ga, gb) = self.group.split_at_mut(at.div_ceil(GROUP));
+        (Stamps::new(a, ga), Stamps::new(b, gb))
+    }
+
+    /// The slots stamped at least `since`, ascending.
+    fn since(&self, since: u32) -> impl Iterator<Item = usize> + '_ {
+        let groups = self.group.iter().enumerate();
+        groups
+            .filter(move |&(_, &g)| g >= since)
+            .flat_map(move |(g, _)| {
+                let slots = g * GROUP..((g + 1) * GROUP).min(self.slot.len());
+                slots.filter(move |&l| self.slot[l] >= since)
+            })
+    }
+}
+
+/// When the contacts to visit are more than this fraction of the block's, a scan is cheaper
+/// than the heap (and gives the same result).
+const SCAN_ABOVE: usize = 8;
+
+/// Each block's contacts by particle (see the module notes).
+#[derive(Debug, Default)]
+pub(crate) struct Frontier {
+    blocks: Vec<BlockIndex>,
+    /// True when the index matches the blocks planned last.
+    ready: bool,
+}
+
+/// One block's contacts by the slots of its span (the block and the next).
+#[derive(Debug, Default)]
+struct BlockIndex {
+    /// `list[start[l]..start[l + 1]]` are the contacts of span slot `l`, ascending; length
+    /// span + 1.
+    start: Vec<u32>,
+    /// Contact (pair) indices; every contact twice, once for each particle.
+    list: Vec<u32>,
+}
+
+thread_local! {
+    /// A sweep's heap, per worker thread, kept between sweeps (no allocation after warm-up).
+    static HEAP: RefCell<Vec<u32>> = const { RefCell::new(Vec::new()) };
+}
+
+impl Frontier {
+    /// Forgets the index (the blocks were planned anew).
+    pub fn clear(&mut self) {
+        self.ready = false;
+    }
+
+    /// Whether [`Frontier::index`] ran for the blocks planned last.
+    pub fn ready(&self) -> bool {
+        self.ready
+    }
+
+    /// Indexes every block's contacts by particle. Block `b` holds the contacts
+    /// `pairs[pair_start[b]..pair_start[b + 1]]` whose `j` lies before `span_end(b)`, and its
+    /// span is `b * size..span_end(b)`.
+    pub fn index(
+        &mut self,
+        pairs: &[Pair],
+        pair_start: &[usize],
+        size: usize,
+        n: usize,
+        parallel: bool,
+    ) {
+        let count = pair_start.len() - 1;
+        self.blocks.resize_with(count, Default::default);
+        let build = |(b, index): (usize, &mut BlockIndex)| {
+            let base = b * size;
+            let end = ((b + 2) * size).min(n);
+            let span = end.saturating_sub(base);
+            let mine = &pairs[pair_start[b]..pair_start[b + 1]];
+            let local = |&(i, j): &Pair| (i as usize - base, j as usize - base);
+            let start = &mut index.start;
+            start.clear();
+            start.resize(span + 1, 0);
+            for (i, j) in mine.iter().filter(|p| (p.1 as usize) < end).map(local) {
+                start[i + 1] += 1;
+                start[j + 1] += 1;
+            }
+            for l in 1..=span {
+                start[l] += start[l - 1];
+            }
+            index.list.clear();
+            index.list.resize(start[span] as usize, 0);
+            // (filled through `start[l]` as a cursor, which ends at the next slot's start)
+            let first = pair_start[b];
+            for (k, &(i, j)) in mine.iter().enumerate() {
+                if (j as usize) < end {
+                    for l in [i as usize - base, j as usize - base] {
+                        index.list[start[l] as usize] = (first + k) as u32;
+                        start[l] += 1;
+                    }
+                }
+            }
+            for l in (1..=span).rev() {
+                start[l] = start[l - 1];
+            }
+            if span > 0 {
+                start[0] = 0;
+            }
+        };
+        if parallel {
+            self.blocks.par_iter_mut().enumerate().for_each(build);
+        } else {
+            self.blocks.iter_mut().enumerate().for_each(build);
+        }
+        self.ready = true;
+    }
+
+    /// Visits block `block`'s contacts (of which it has `contacts`) as a scan would (see the
+    /// module notes), given the span's `stamps`: `visit(k, stamps)` applies the rule to
+    /// contact `k` and returns the span slots of its particles when it changed them. Returns
+    /// false, having visited nothing, when a scan is cheaper.
+    pub fn walk(
+        &self,
+        block: usize,
+        contacts: usize,
+        reverse: bool,
+        stamps: &mut Stamps,
+        since: u32,
+        mut visit: impl FnMut(usize, &mut Stamps) -> Option<(usize, usize)>,
+    ) -> bool {
+        let index = &self.blocks[block];
+        let of = |l: usize| &index.list[index.start[l] as usize..index.start[l + 1] as usize];
+        // (a max-heap: forwards, the smallest index comes first as the largest complement)
+        let key = |k: u32| if reverse { k } else { !k };
+        HEAP.with_borrow_mut(|seeds| {
+            seeds.clear();
+            for l in stamps.since(since) {
+                seeds.extend(of(l).iter().map(|&k| key(k)));
+                if seeds.len() > contacts.div_ceil(SCAN_ABOVE) * 2 {
+                    seeds.clear();
+                    return false;
+                }
+            }
+            let mut heap = BinaryHeap::from(std::mem::take(seeds));
+            let mut last = None;
+            while let Some(top) = heap.pop() {
+                let k = key(top);
+                if last == Some(k) {
+                    continue;
+                }
+                last = Some(k);
+                if let Some((i, j)) = visit(k as usize, stamps) {
+                    for &m in of(i).iter().chain(of(j)) {
+                        if (m > k) != reverse && m != k {
+                            heap.push(key(m));
+                        }
+                    }
+                }
+            }
+            *seeds = heap.into_vec();
+            true
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn groups_find_the_stamped_slots_and_split_with_them() {
+        let (mut slot, mut group) = (vec![0; 200], vec![0; 4]);
+        let mut stamps = Stamps::new(&mut slot, &mut group);
+        for (i, now) in [(3, 5), (70, 6), (199, 7), (130, 2)] {
+            stamps.set(i, now);
+        }
+        assert_eq!(stamps.since(5).collect::<Vec<_>>(), vec![3, 70, 199]);
+        let (low, high) = stamps.split_at(128);
+        assert_eq!(low.since(6).collect::<Vec<_>>(), vec![70]);
+        assert_eq!(high.since(1).collect::<Vec<_>>(), vec![2, 71]);
+    }
+
+    #[test]
+    fn every_contact_is_listed_under_both_its_particles_in_order() {
+        // one block of 4 slots (span 0..4): contacts (0,1), (0,3), (1,2), (2,3)
+        let pairs = [(0, 1), (0, 3), (1, 2), (2, 3)];
+        let mut f = Frontier::default();
+        f.index(&pairs, &[0, 4], 4, 4, false);
+        let b = &f.blocks[0];
+        assert_eq!(b.start, vec![0, 2, 4, 6, 8]);
+        assert_eq!(b.list, vec![0, 1, 0, 2, 2, 3, 1, 3]);
+        assert!(f.ready());
+    }
+
+    #[test]
+    fn the_walk_follows_changes_forwards_and_backwards() {
+        // a chain 0-1-2-3-4: contacts k = (k, k + 1)
+        let pairs = [(0, 1), (1, 2), (2, 3), (3, 4)];
+        let mut f = Frontier::default();
+        f.index(&pairs, &[0, 4], 8, 5, false);
+        for reverse in [false, true] {
+            // seeded at slot 2 (contacts 1 and 2); every visit changes its particles
+            let mut seen = Vec::new();
+            let (mut slot, mut group) = ([0, 0, 1, 0, 0], [1]);
+            let mut stamps = Stamps::new(&mut slot, &mut group);
+            let walked = f.walk(0, 400, reverse, &mut stamps, 1, |k, _| {
+                seen.push(k);
+                Some(pairs[k]).map(|(i, j)| (i as usize, j as usize))
+            });
+            assert!(walked);
+            let expected = if reverse {
+                vec![2, 1, 0]
+            } else {
+                vec![1, 2, 3]
+            };
+            assert_eq!(seen, expected, "reverse {reverse}");
+        }
+        // too many seeds for the size: a scan instead
+        let (mut slot, mut group) = ([1; 5], [1]);
+        let mut stamps = Stamps::new(&mut slot, &mut group);
+        assert!(!f.walk(0, 4, false, &mut stamps, 1, |_, _| None));
+    }
+}
