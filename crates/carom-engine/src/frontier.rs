@@ -103,9 +103,20 @@ impl<'a> Stamps<'a> {
     }
 }
 
-/// When the contacts to visit are more than this fraction of the block's, a scan is cheaper
-/// than the heap (and gives the same result).
+/// When the heap has taken more entries than this fraction of the block's contacts (each
+/// contact is listed twice), a scan of the rest is cheaper (and gives the same result): in a
+/// pile a change runs through the whole block within one sweep.
 const SCAN_ABOVE: usize = 8;
+
+/// How a [`Frontier::walk`] ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Walk {
+    /// Every contact a scan would visit was visited.
+    Done,
+    /// Scanning is cheaper: scan the contacts past this one in the sweep's direction (all of
+    /// them when `None`). A scan from there visits exactly what the walk would have.
+    ScanPast(Option<usize>),
+}
 
 /// Each block's contacts by particle (see the module notes).
 #[derive(Debug, Default)]
@@ -199,8 +210,8 @@ impl Frontier {
 
     /// Visits block `block`'s contacts (of which it has `contacts`) as a scan would (see the
     /// module notes), given the span's `stamps`: `visit(k, stamps)` applies the rule to
-    /// contact `k` and returns the span slots of its particles when it changed them. Returns
-    /// false, having visited nothing, when a scan is cheaper.
+    /// contact `k` and returns the span slots of its particles when it changed them. Stops
+    /// where a scan becomes cheaper (see [`Walk`]).
     pub fn walk(
         &self,
         block: usize,
@@ -209,19 +220,22 @@ impl Frontier {
         stamps: &mut Stamps,
         since: u32,
         mut visit: impl FnMut(usize, &mut Stamps) -> Option<(usize, usize)>,
-    ) -> bool {
+    ) -> Walk {
         let index = &self.blocks[block];
         let of = |l: usize| &index.list[index.start[l] as usize..index.start[l + 1] as usize];
         // (a max-heap: forwards, the smallest index comes first as the largest complement)
         let key = |k: u32| if reverse { k } else { !k };
+        let mut budget = contacts.div_ceil(SCAN_ABOVE) * 2;
         HEAP.with_borrow_mut(|seeds| {
             seeds.clear();
             for l in stamps.since(since) {
-                seeds.extend(of(l).iter().map(|&k| key(k)));
-                if seeds.len() > contacts.div_ceil(SCAN_ABOVE) * 2 {
+                let more = of(l);
+                if more.len() > budget {
                     seeds.clear();
-                    return false;
+                    return Walk::ScanPast(None);
                 }
+                budget -= more.len();
+                seeds.extend(more.iter().map(|&k| key(k)));
             }
             let mut heap = BinaryHeap::from(std::mem::take(seeds));
             let mut last = None;
@@ -232,6 +246,12 @@ impl Frontier {
                 }
                 last = Some(k);
                 if let Some((i, j)) = visit(k as usize, stamps) {
+                    let more = of(i).len() + of(j).len();
+                    if more > budget {
+                        *seeds = heap.into_vec();
+                        return Walk::ScanPast(Some(k as usize));
+                    }
+                    budget -= more;
                     for &m in of(i).iter().chain(of(j)) {
                         if (m > k) != reverse && m != k {
                             heap.push(key(m));
@@ -240,7 +260,7 @@ impl Frontier {
                 }
             }
             *seeds = heap.into_vec();
-            true
+            Walk::Done
         })
     }
 }
@@ -289,7 +309,7 @@ mod tests {
                 seen.push(k);
                 Some(pairs[k]).map(|(i, j)| (i as usize, j as usize))
             });
-            assert!(walked);
+            assert_eq!(walked, Walk::Done);
             let expected = if reverse {
                 vec![2, 1, 0]
             } else {
@@ -300,6 +320,16 @@ mod tests {
         // too many seeds for the size: a scan instead
         let (mut slot, mut group) = ([1; 5], [1]);
         let mut stamps = Stamps::new(&mut slot, &mut group);
-        assert!(!f.walk(0, 4, false, &mut stamps, 1, |_, _| None));
+        assert_eq!(
+            f.walk(0, 4, false, &mut stamps, 1, |_, _| None),
+            Walk::ScanPast(None)
+        );
+        // a budget that runs out on the way: the scan goes on past the last contact visited
+        let (mut slot, mut group) = ([0, 1, 0, 0, 0], [1]);
+        let mut stamps = Stamps::new(&mut slot, &mut group);
+        let walk = f.walk(0, 8, false, &mut stamps, 1, |k, _| {
+            Some(pairs[k]).map(|(i, j)| (i as usize, j as usize))
+        });
+        assert_eq!(walk, Walk::ScanPast(Some(0)));
     }
 }

@@ -33,7 +33,7 @@
 //! ([`crate::frontier`]) instead of scanning every contact, with the same result.
 
 use crate::broadphase::Pair;
-use crate::frontier::{Frontier, Stamps};
+use crate::frontier::{Frontier, Stamps, Walk};
 use crate::solver::Row;
 use crate::vector::Vector;
 
@@ -289,6 +289,7 @@ impl Blocks {
             let limit = slot_base + slots.len();
             let mine = self.pair_start[block]..self.pair_start[block + 1];
             let mut changed = 0;
+            let mut mine = mine;
             if visit.since > 0 && !stamps.is_empty() && self.frontier.ready() {
                 let walked = self.frontier.walk(
                     block,
@@ -309,8 +310,11 @@ impl Blocks {
                         Some((i, j))
                     },
                 );
-                if walked {
-                    return changed;
+                match walked {
+                    Walk::Done => return changed,
+                    Walk::ScanPast(None) => {}
+                    Walk::ScanPast(Some(k)) if reverse => mine.end = k,
+                    Walk::ScanPast(Some(k)) => mine.start = k + 1,
                 }
             }
             let mut one = |k: usize| {
