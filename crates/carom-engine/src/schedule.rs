@@ -282,60 +282,18 @@ impl Blocks {
         let work = |c: usize,
                     slot_base: usize,
                     slots: &mut [V],
-                    mut stamps: Stamps,
+                    stamps: Stamps,
                     row_base: usize,
-                    span_rows: &mut [Row<V>]| {
-            let block = parity + 2 * c;
-            let limit = slot_base + slots.len();
-            let mine = self.pair_start[block]..self.pair_start[block + 1];
-            let mut changed = 0;
-            let mut mine = mine;
-            if visit.since > 0 && !stamps.is_empty() && self.frontier.ready() {
-                let walked = self.frontier.walk(
-                    block,
-                    mine.len(),
-                    reverse,
-                    &mut stamps,
-                    visit.since,
-                    |k, stamps| {
-                        let (i, j) = pairs[k];
-                        let (i, j) = (i as usize - slot_base, j as usize - slot_base);
-                        let (a, b) = pair_mut(slots, i, j);
-                        let change = rule(&mut span_rows[k - row_base], a, b);
-                        if change == Change::Nothing {
-                            return None;
-                        }
-                        visit.stamp(stamps, i, j);
-                        changed += change.count();
-                        Some((i, j))
-                    },
-                );
-                match walked {
-                    Walk::Done => return changed,
-                    Walk::ScanPast(None) => {}
-                    Walk::ScanPast(Some(k)) if reverse => mine.end = k,
-                    Walk::ScanPast(Some(k)) => mine.start = k + 1,
-                }
-            }
-            let mut one = |k: usize| {
-                let (i, j) = pairs[k];
-                let (i, j) = (i as usize - slot_base, j as usize - slot_base);
-                // (pairs reaching beyond the span are leftovers)
-                if j < limit - slot_base && visit.wants(&stamps, i, j) {
-                    let (a, b) = pair_mut(slots, i, j);
-                    let change = rule(&mut span_rows[k - row_base], a, b);
-                    if change != Change::Nothing {
-                        visit.stamp(&mut stamps, i, j);
-                        changed += change.count();
-                    }
-                }
+                    rows: &mut [Row<V>]| {
+            let span = Span {
+                block: parity + 2 * c,
+                slot_base,
+                slots,
+                stamps,
+                row_base,
+                rows,
             };
-            if reverse {
-                mine.rev().for_each(&mut one);
-            } else {
-                mine.for_each(&mut one);
-            }
-            changed
+            self.run_block(span, visit, pairs, reverse, rule)
         };
         let (s0, r0) = (slot(0), row(0));
         split_run(
@@ -348,6 +306,76 @@ impl Blocks {
             &mut rows[r0..row(spans)],
             &work,
         )
+    }
+
+    /// One block's pairs in `span` (see [`Blocks::run_parity`]): the changed contacts through
+    /// the frontier when there is one (see [`crate::frontier`]), scanning otherwise or past
+    /// where the frontier stops. Returns how many applications changed something.
+    fn run_block<V: Vector>(
+        &self,
+        span: Span<V>,
+        visit: Visit,
+        pairs: &[Pair],
+        reverse: bool,
+        rule: &impl PairRule<V>,
+    ) -> u64 {
+        let Span {
+            block,
+            slot_base,
+            slots,
+            mut stamps,
+            row_base,
+            rows,
+        } = span;
+        let limit = slots.len();
+        let mut mine = self.pair_start[block]..self.pair_start[block + 1];
+        let mut changed = 0;
+        if visit.since > 0 && !stamps.is_empty() && self.frontier.ready() {
+            let walked = self.frontier.walk(
+                block,
+                mine.len(),
+                reverse,
+                &mut stamps,
+                visit.since,
+                |k, stamps| {
+                    let (i, j) = pairs[k];
+                    let (i, j) = (i as usize - slot_base, j as usize - slot_base);
+                    let (a, b) = pair_mut(slots, i, j);
+                    let change = rule(&mut rows[k - row_base], a, b);
+                    if change == Change::Nothing {
+                        return None;
+                    }
+                    visit.stamp(stamps, i, j);
+                    changed += change.count();
+                    Some((i, j))
+                },
+            );
+            match walked {
+                Walk::Done => return changed,
+                Walk::ScanPast(None) => {}
+                Walk::ScanPast(Some(k)) if reverse => mine.end = k,
+                Walk::ScanPast(Some(k)) => mine.start = k + 1,
+            }
+        }
+        let mut one = |k: usize| {
+            let (i, j) = pairs[k];
+            let (i, j) = (i as usize - slot_base, j as usize - slot_base);
+            // (pairs reaching beyond the span are leftovers)
+            if j < limit && visit.wants(&stamps, i, j) {
+                let (a, b) = pair_mut(slots, i, j);
+                let change = rule(&mut rows[k - row_base], a, b);
+                if change != Change::Nothing {
+                    visit.stamp(&mut stamps, i, j);
+                    changed += change.count();
+                }
+            }
+        };
+        if reverse {
+            mine.rev().for_each(&mut one);
+        } else {
+            mine.for_each(&mut one);
+        }
+        changed
     }
 
     /// Applies `rule` to every plane contact (`plane_contacts[k]` with row `plane_rows[k]`)
@@ -480,6 +508,19 @@ fn split_run<T: Send, R: Send>(
         },
     );
     a + b
+}
+
+/// One block's share of a parity run: its span of slots (the block and the next), their
+/// stamps, and the rows of the block's pairs.
+struct Span<'a, V> {
+    block: usize,
+    /// The span's first slot.
+    slot_base: usize,
+    slots: &'a mut [V],
+    stamps: Stamps<'a>,
+    /// Index of the first row in `rows`.
+    row_base: usize,
+    rows: &'a mut [Row<V>],
 }
 
 /// `&mut s[i]` and `&mut s[j]` at once, for `i < j`.
