@@ -30,7 +30,7 @@
 //! rounding), so skipping a contact gives the very bits visiting it would: the work list changes the cost of a sweep, never its result, and a
 //! process that visits every contact (the cluster's) stays bit-identical to one that does not.
 //! A sweep finds the contacts of its changed particles through an index by particle
-//! ([`crate::frontier`]) instead of scanning every contact, with the same result.
+//! (`frontier.rs`) instead of scanning every contact, with the same result.
 
 use crate::broadphase::Pair;
 use crate::frontier::{Frontier, Stamps, Walk};
