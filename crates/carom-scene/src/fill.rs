@@ -48,8 +48,8 @@ pub(crate) fn particles<V: Vector>(
         grid: PlacementGrid::new(bounds, max_radius, total as usize),
         seams: periodic.zip(domain),
     };
-    for (id, &x) in out.positions().iter().enumerate() {
-        placer.grid.insert(x, id as u32);
+    for (id, (&x, &r)) in out.positions().iter().zip(out.radii()).enumerate() {
+        placer.grid.insert(x, r, id as u32);
     }
     for (i, f) in raw.fill.iter().enumerate() {
         fill_one(ctx, i, f, regions[i], &mut placer, &mut out)?;
@@ -165,7 +165,7 @@ fn regions<V: Vector>(
 /// Where particles have been placed so far, and the seams to look across (periodic axes of
 /// the domain).
 struct Placer<V> {
-    grid: PlacementGrid,
+    grid: PlacementGrid<V>,
     seams: Option<(Periodic, Aabb<V>)>,
 }
 
@@ -175,14 +175,11 @@ impl<V: Vector> Placer<V> {
         self.seams.map_or(x, |(p, _)| p.wrap(x))
     }
 
-    /// True when a particle of `radius` at `x` would overlap one already placed in `out`.
-    fn overlaps(&self, x: V, radius: f64, out: &Particles<V>) -> bool {
+    /// True when a particle of `radius` at `x` would overlap one already placed.
+    fn overlaps(&self, x: V, radius: f64) -> bool {
         match &self.seams {
-            None => self.grid.overlaps(x, radius, out.positions(), out.radii()),
-            Some((p, d)) => {
-                self.grid
-                    .overlaps_across(p, d, x, radius, out.positions(), out.radii())
-            }
+            None => self.grid.overlaps(x, radius),
+            Some((p, d)) => self.grid.overlaps_across(p, d, x, radius),
         }
     }
 
@@ -197,7 +194,7 @@ impl<V: Vector> Placer<V> {
         let id = out
             .push(x, v, radius, mass)
             .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
-        self.grid.insert(x, id as u32);
+        self.grid.insert(x, radius, id as u32);
         Ok(())
     }
 }
@@ -314,7 +311,7 @@ fn place_random<V: Vector>(
             *slot = lo.get(a) + span.get(a) * rng.random::<f64>();
         }
         let x = placer.wrap(V::from_slice(&c));
-        if placer.overlaps(x, radius, out) {
+        if placer.overlaps(x, radius) {
             continue;
         }
         let v = fill.velocity(rng);
@@ -367,7 +364,7 @@ fn place_lattice<V: Vector>(
             site[a] = 0;
         }
         let x = placer.wrap(V::from_slice(&c));
-        if placer.overlaps(x, radius, out) {
+        if placer.overlaps(x, radius) {
             continue;
         }
         let v = fill.velocity(rng);
@@ -392,24 +389,36 @@ fn random_direction<V: Vector>(rng: &mut Pcg64) -> V {
     }
 }
 
-/// Placement-time overlap checks on a dense grid of linked lists (a head per cell, a `next`
-/// per particle: 4 bytes each, so a fill of millions stays lean). Cells are at least one
-/// largest diameter wide, so every particle that can touch a new one is in the 3^D cells
-/// around it.
-struct PlacementGrid {
+/// Placement-time overlap checks on a dense grid of linked lists: a head per cell (4 bytes)
+/// and, per placed particle, its centre and radius beside the next particle of its cell. A
+/// random candidate lands anywhere in a box of millions, so the cells and particles it looks
+/// at are cache misses: keeping the centre and radius beside the link (instead of looking
+/// them up in the scene's separate position and radius arrays) makes that one miss per
+/// particle instead of three. Cells are at least one largest diameter wide, so every particle
+/// that can touch a new one is in the 3^D cells around it.
+struct PlacementGrid<V> {
     origin: [f64; 3],
     inverse_cell: f64,
     max_radius: f64,
     dims: [usize; 3],
     head: Vec<u32>,
-    next: Vec<u32>,
+    placed: Vec<Placed<V>>,
+}
+
+/// One placed particle in a [`PlacementGrid`].
+#[derive(Clone, Copy)]
+struct Placed<V> {
+    centre: V,
+    radius: f64,
+    /// The particle placed before it in the same cell, or [`EMPTY`].
+    next: u32,
 }
 
 const EMPTY: u32 = u32::MAX;
 
-impl PlacementGrid {
+impl<V: Vector> PlacementGrid<V> {
     /// A grid over `bounds` for `capacity` particles of radius at most `max_radius`.
-    fn new<V: Vector>(bounds: Aabb<V>, max_radius: f64, capacity: usize) -> Self {
+    fn new(bounds: Aabb<V>, max_radius: f64, capacity: usize) -> Self {
         let mut cell = 2.0 * max_radius;
         let extent: Vec<f64> = (0..V::DIM)
             .map(|a| bounds.max.get(a) - bounds.min.get(a))
@@ -440,11 +449,11 @@ impl PlacementGrid {
             max_radius,
             dims,
             head: vec![EMPTY; dims.iter().product()],
-            next: Vec::with_capacity(capacity),
+            placed: Vec::with_capacity(capacity),
         }
     }
 
-    fn coords<V: Vector>(&self, x: V) -> [usize; 3] {
+    fn coords(&self, x: V) -> [usize; 3] {
         let mut c = [0usize; 3];
         for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
             *slot = self.axis_cell(a, x.get(a));
@@ -456,31 +465,30 @@ impl PlacementGrid {
         (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
     }
 
-    /// Adds particle `id` (ids must arrive in order 0, 1, 2, ...).
-    fn insert<V: Vector>(&mut self, x: V, id: u32) {
-        debug_assert_eq!(id as usize, self.next.len());
-        let cell = self.linear(self.coords(x));
-        self.next.push(self.head[cell]);
+    /// Adds particle `id` at `centre` (ids must arrive in order 0, 1, 2, ...).
+    fn insert(&mut self, centre: V, radius: f64, id: u32) {
+        debug_assert_eq!(id as usize, self.placed.len());
+        let cell = self.linear(self.coords(centre));
+        self.placed.push(Placed {
+            centre,
+            radius,
+            next: self.head[cell],
+        });
         self.head[cell] = id;
     }
 
+    /// The cell holding `coordinate` on `axis`, clamped to the grid: `floor` of the scaled
+    /// coordinate, as truncation (the same for `t >= 0`; anything below clamps to 0, and a
+    /// NaN, which `as` turns into 0, too) so the hot loop makes no libm call.
     fn axis_cell(&self, axis: usize, coordinate: f64) -> usize {
-        let t = ((coordinate - self.origin[axis]) * self.inverse_cell).floor();
-        (t.max(0.0) as usize).min(self.dims[axis] - 1)
+        let t = (coordinate - self.origin[axis]) * self.inverse_cell;
+        (t as i64).clamp(0, self.dims[axis] as i64 - 1) as usize
     }
 
     /// [`PlacementGrid::overlaps`] for `x` and its images across the seams of `periodic`
     /// (`domain`'s periodic axes) that lie within reach of another particle: `x` is wrapped,
     /// so an image one period away can only touch particles near the opposite face.
-    fn overlaps_across<V: Vector>(
-        &self,
-        periodic: &Periodic,
-        domain: &Aabb<V>,
-        x: V,
-        radius: f64,
-        positions: &[V],
-        radii: &[f64],
-    ) -> bool {
+    fn overlaps_across(&self, periodic: &Periodic, domain: &Aabb<V>, x: V, radius: f64) -> bool {
         let reach = radius + self.max_radius;
         // Per axis: no shift, and one period towards the far face when x is near a face.
         let mut shifts = [[0.0; 2]; 3];
@@ -500,7 +508,7 @@ impl PlacementGrid {
             for y in &shifts[1][..count[1]] {
                 for sx in &shifts[0][..count[0]] {
                     let image = x + V::from_slice(&[*sx, *y, *z]);
-                    if self.overlaps(image, radius, positions, radii) {
+                    if self.overlaps(image, radius) {
                         return true;
                     }
                 }
@@ -509,8 +517,10 @@ impl PlacementGrid {
         false
     }
 
-    fn overlaps<V: Vector>(&self, x: V, radius: f64, positions: &[V], radii: &[f64]) -> bool {
-        // Cells within reach of x, widened past rounding (see carom_engine::grid).
+    /// True when a particle of `radius` at `x` would overlap one already placed.
+    fn overlaps(&self, x: V, radius: f64) -> bool {
+        // Cells within reach of x, widened past rounding (see carom_engine::grid): reach is at
+        // most a cell, so at most 4 cells per axis.
         let reach = radius + self.max_radius;
         let mut lo = [0usize; 3];
         let mut hi = [0usize; 3];
@@ -520,19 +530,40 @@ impl PlacementGrid {
             lo[a] = self.axis_cell(a, c - widened);
             hi[a] = self.axis_cell(a, c + widened);
         }
+        // Every cell's head first, then the chains: the heads are independent loads, each
+        // likely a cache miss, and the processor fetches them together instead of one after
+        // another. (Whether any placed particle overlaps does not depend on the order.)
+        let mut heads = [EMPTY; 64];
+        let mut count = 0;
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
-                for x_cell in lo[0]..=hi[0] {
-                    let mut j = self.head[self.linear([x_cell, y, z])];
-                    while j != EMPTY {
-                        let reach = radius + radii[j as usize];
-                        if (positions[j as usize] - x).length_squared() < reach * reach {
-                            return true;
-                        }
-                        j = self.next[j as usize];
+                let row = self.linear([0, y, z]);
+                for &head in &self.head[row + lo[0]..=row + hi[0]] {
+                    if count < heads.len() {
+                        heads[count] = head;
+                        count += 1;
+                    } else if self.chain_overlaps(head, x, radius) {
+                        return true;
                     }
                 }
             }
+        }
+        heads[..count]
+            .iter()
+            .any(|&head| self.chain_overlaps(head, x, radius))
+    }
+
+    /// True when a particle of the cell list starting at `head` overlaps one of `radius` at `x`.
+    #[inline]
+    fn chain_overlaps(&self, head: u32, x: V, radius: f64) -> bool {
+        let mut j = head;
+        while j != EMPTY {
+            let other = &self.placed[j as usize];
+            let reach = radius + other.radius;
+            if (other.centre - x).length_squared() < reach * reach {
+                return true;
+            }
+            j = other.next;
         }
         false
     }
