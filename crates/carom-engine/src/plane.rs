@@ -74,11 +74,22 @@ impl<V: Vector> Plane<V> {
     /// is already clear).
     #[inline]
     pub fn push_out(&self, x: V, radius: f64) -> V {
-        let depth = radius - self.signed_distance(x);
+        let mut x = x;
+        self.push_out_in_place(&mut x, radius);
+        x
+    }
+
+    /// [`Plane::push_out`] in place: writes `x` only when it moves (a pass over many
+    /// particles, most of them clear, then leaves their memory untouched). Returns whether it
+    /// moved.
+    #[inline]
+    pub fn push_out_in_place(&self, x: &mut V, radius: f64) -> bool {
+        let depth = radius - self.signed_distance(*x);
         if depth > 0.0 {
-            x + self.normal * depth
+            *x = *x + self.normal * depth;
+            true
         } else {
-            x
+            false
         }
     }
 }

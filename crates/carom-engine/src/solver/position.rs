@@ -98,9 +98,11 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
     }
     // Planes last, for every particle the pair sweeps may have moved (the others moved only
     // out of their own planes above), so a walled box holds its particles; then measure.
+    // (this pass reads every row and both its particles: it writes only what changes, so the
+    // rows and positions it leaves as they were need not go back to memory)
     let out_of_all_planes = |x: &mut V, r: f64| {
         for plane in planes {
-            *x = plane.push_out(*x, r);
+            plane.push_out_in_place(x, r);
         }
     };
     let finish = |row: &mut Row<V>, xi: &mut V, xj: &mut V| {
@@ -114,12 +116,15 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
             }
         }
         let image = row.image(*xj);
-        row.overlap = if clearly_apart(*xi - image, row.reach()) {
+        let overlap = if clearly_apart(*xi - image, row.reach()) {
             0.0
         } else {
             let (_, distance) = contact_normal(*xi, image);
             ((row.reach() - distance) / row.min_radius()).max(0.0)
         };
+        if row.overlap.to_bits() != overlap.to_bits() {
+            row.overlap = overlap;
+        }
         Change::Nothing
     };
     blocks.every_pair(exchange, position, c.pairs, c.rows, &finish);
