@@ -86,7 +86,7 @@ impl<V: Vector> Plane<V> {
     pub fn push_out_in_place(&self, x: &mut V, radius: f64) -> bool {
         let depth = radius - self.signed_distance(*x);
         if depth > 0.0 {
-            *x = *x + self.normal * depth;
+            *x += self.normal * depth;
             true
         } else {
             false
