@@ -306,11 +306,24 @@ fn place_random<V: Vector>(
                 ),
             ));
         }
-        let mut c = [0.0; 3];
-        for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
-            *slot = lo.get(a) + span.get(a) * rng.random::<f64>();
+        let candidate = |rng: &mut Pcg64| {
+            let mut c = [0.0; 3];
+            for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
+                *slot = lo.get(a) + span.get(a) * rng.random::<f64>();
+            }
+            placer.wrap(V::from_slice(&c))
+        };
+        let x = candidate(rng);
+        // The next try's cells, fetched while this one is checked: where it lands if this one
+        // is refused, and where if it is placed (after the draws of its velocity). A random
+        // spot in a box of millions is a cache miss; this way the next one is not waited for.
+        let mut refused = rng.clone();
+        placer.grid.prefetch(candidate(&mut refused), radius);
+        let mut placed = rng.clone();
+        for _ in 0..VELOCITY_DRAWS[V::DIM - 1] {
+            placed.random::<u64>();
         }
-        let x = placer.wrap(V::from_slice(&c));
+        placer.grid.prefetch(candidate(&mut placed), radius);
         if placer.overlaps(x, radius) {
             continue;
         }
@@ -319,6 +332,11 @@ fn place_random<V: Vector>(
     }
     Ok(())
 }
+
+/// How many numbers [`Fill::velocity`] draws in 1, 2 and 3 dimensions (a direction, then a
+/// speed): only the look-ahead of [`place_random`] needs it, and a wrong count costs it its
+/// prefetch, never a result.
+const VELOCITY_DRAWS: [usize; 3] = [2, 2, 3];
 
 /// Lattice sites from the region's min corner (less a radius), x fastest, each kept if it
 /// overlaps nothing.
@@ -415,6 +433,20 @@ struct Placed<V> {
 }
 
 const EMPTY: u32 = u32::MAX;
+
+/// Hints the processor to bring the cache line of `value` in; no effect on any result.
+#[inline]
+fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // SAFETY: a prefetch is a hint: it never faults and reads nothing the program sees,
+        // and the address is a live reference besides.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast::<i8>()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
+}
 
 impl<V: Vector> PlacementGrid<V> {
     /// A grid over `bounds` for `capacity` particles of radius at most `max_radius`.
@@ -515,6 +547,26 @@ impl<V: Vector> PlacementGrid<V> {
             }
         }
         false
+    }
+
+    /// Asks the processor to fetch the cell heads [`PlacementGrid::overlaps`] would read for
+    /// a particle of `radius` at `x`; changes nothing.
+    fn prefetch(&self, x: V, radius: f64) {
+        let reach = radius + self.max_radius;
+        let mut lo = [0usize; 3];
+        let mut hi = [0usize; 3];
+        for a in 0..V::DIM {
+            let c = x.get(a);
+            let widened = carom_engine::grid::widened_reach(c, reach);
+            lo[a] = self.axis_cell(a, c - widened);
+            hi[a] = self.axis_cell(a, c + widened);
+        }
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                let row = self.linear([lo[0], y, z]);
+                prefetch(&self.head[row]);
+            }
+        }
     }
 
     /// True when a particle of `radius` at `x` would overlap one already placed.
