@@ -314,16 +314,31 @@ fn place_random<V: Vector>(
             placer.wrap(V::from_slice(&c))
         };
         let x = candidate(rng);
-        // The next try's cells, fetched while this one is checked: where it lands if this one
-        // is refused, and where if it is placed (after the draws of its velocity). A random
-        // spot in a box of millions is a cache miss; this way the next one is not waited for.
-        let mut refused = rng.clone();
-        placer.grid.prefetch(candidate(&mut refused), radius);
-        let mut placed = rng.clone();
-        for _ in 0..VELOCITY_DRAWS[V::DIM - 1] {
-            placed.random::<u64>();
+        // Fetched while this try is checked, for each way it and the next can go (refused, or
+        // placed after the draws of a velocity): the first particle of every cell the next try
+        // looks at (its cell heads were fetched by the try before), and the cell heads of the
+        // try after it. A random spot in a box of millions is a cache miss; this way the next
+        // tries are not waited for.
+        let skip = VELOCITY_DRAWS[V::DIM - 1];
+        let mut ahead = rng.clone();
+        for placed_before in 0..=1 {
+            let mut next = ahead.clone();
+            placer.grid.prefetch_chains(candidate(&mut next), radius);
+            for placed_next in 0..=1 {
+                if placed_before + placed_next == 1 && placed_before == 1 {
+                    // (refused-placed and placed-refused start the try after at the same draw)
+                    continue;
+                }
+                let mut after = next.clone();
+                for _ in 0..placed_next * skip {
+                    after.random::<u64>();
+                }
+                placer.grid.prefetch(candidate(&mut after), radius);
+            }
+            for _ in 0..skip {
+                ahead.random::<u64>();
+            }
         }
-        placer.grid.prefetch(candidate(&mut placed), radius);
         if placer.overlaps(x, radius) {
             continue;
         }
@@ -565,6 +580,31 @@ impl<V: Vector> PlacementGrid<V> {
             for y in lo[1]..=hi[1] {
                 let row = self.linear([lo[0], y, z]);
                 prefetch(&self.head[row]);
+            }
+        }
+    }
+
+    /// Asks the processor to fetch the first particle of every cell that
+    /// [`PlacementGrid::overlaps`] would read for a particle of `radius` at `x` (reading the
+    /// cell heads, best fetched before with [`PlacementGrid::prefetch`]); changes nothing.
+    fn prefetch_chains(&self, x: V, radius: f64) {
+        let reach = radius + self.max_radius;
+        let mut lo = [0usize; 3];
+        let mut hi = [0usize; 3];
+        for a in 0..V::DIM {
+            let c = x.get(a);
+            let widened = carom_engine::grid::widened_reach(c, reach);
+            lo[a] = self.axis_cell(a, c - widened);
+            hi[a] = self.axis_cell(a, c + widened);
+        }
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                let row = self.linear([0, y, z]);
+                for &head in &self.head[row + lo[0]..=row + hi[0]] {
+                    if let Some(first) = self.placed.get(head as usize) {
+                        prefetch(first);
+                    }
+                }
             }
         }
     }
