@@ -314,31 +314,7 @@ fn place_random<V: Vector>(
             placer.wrap(V::from_slice(&c))
         };
         let x = candidate(rng);
-        // Fetched while this try is checked, for each way it and the next can go (refused, or
-        // placed after the draws of a velocity): the first particle of every cell the next try
-        // looks at (its cell heads were fetched by the try before), and the cell heads of the
-        // try after it. A random spot in a box of millions is a cache miss; this way the next
-        // tries are not waited for.
-        let skip = VELOCITY_DRAWS[V::DIM - 1];
-        let mut ahead = rng.clone();
-        for placed_before in 0..=1 {
-            let mut next = ahead.clone();
-            placer.grid.prefetch_chains(candidate(&mut next), radius);
-            for placed_next in 0..=1 {
-                if placed_before + placed_next == 1 && placed_before == 1 {
-                    // (refused-placed and placed-refused start the try after at the same draw)
-                    continue;
-                }
-                let mut after = next.clone();
-                for _ in 0..placed_next * skip {
-                    after.random::<u64>();
-                }
-                placer.grid.prefetch(candidate(&mut after), radius);
-            }
-            for _ in 0..skip {
-                ahead.random::<u64>();
-            }
-        }
+        look_ahead(&placer.grid, rng, &candidate, radius);
         if placer.overlaps(x, radius) {
             continue;
         }
@@ -346,6 +322,46 @@ fn place_random<V: Vector>(
         placer.place(ctx, i, out, (x, v, radius, fill.mass))?;
     }
     Ok(())
+}
+
+/// Fetches, while a try is checked, what the next tries will read, for each way they can go
+/// (refused, or placed after the draws of a velocity; `rng` is where the next try draws
+/// from if this one is refused). A random spot in a box of millions is a cache miss; this way
+/// the next tries are not waited for. In 2D: the first particle of every cell the next try
+/// looks at (its cell heads were fetched by the try before), and the cell heads of the try
+/// after it. In 3D, only the cell heads of the next try: with 27 cells a try, going deeper
+/// cost more than it saved (10^6 spheres at volume fraction 0.2: 1.16x the time without any
+/// look-ahead, against 0.77x for one try ahead).
+fn look_ahead<V: Vector>(
+    grid: &PlacementGrid<V>,
+    rng: &Pcg64,
+    candidate: &impl Fn(&mut Pcg64) -> V,
+    radius: f64,
+) {
+    let skip = VELOCITY_DRAWS[V::DIM - 1];
+    let mut ahead = rng.clone();
+    for placed_before in 0..=1 {
+        let mut next = ahead.clone();
+        if V::DIM == 3 {
+            grid.prefetch(candidate(&mut next), radius);
+        } else {
+            grid.prefetch_chains(candidate(&mut next), radius);
+            for placed_next in 0..=1 {
+                // (placed then refused starts the try after where refused then placed does)
+                if placed_before == 1 && placed_next == 0 {
+                    continue;
+                }
+                let mut after = next.clone();
+                for _ in 0..placed_next * skip {
+                    after.random::<u64>();
+                }
+                grid.prefetch(candidate(&mut after), radius);
+            }
+        }
+        for _ in 0..skip {
+            ahead.random::<u64>();
+        }
+    }
 }
 
 /// How many numbers [`Fill::velocity`] draws in 1, 2 and 3 dimensions (a direction, then a
