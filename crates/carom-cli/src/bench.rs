@@ -576,7 +576,7 @@ fn measure<V: Vector>(
         }
         (setup_seconds, t.elapsed().as_secs_f64())
     });
-    let mass: f64 = world.particles().masses().iter().sum();
+    let mass = world.total_mass();
     let end_v_rms = (2.0 * world.kinetic_energy() / mass.max(f64::MIN_POSITIVE)).sqrt();
     let steps = case.steps.max(1) as f64;
     let peak = peak_rss_bytes();

@@ -5,31 +5,43 @@ use crate::vector::Vector;
 
 /// Total kinetic energy `sum 1/2 m |v|^2`.
 pub fn kinetic_energy<V: Vector>(particles: &Particles<V>) -> f64 {
-    particles
-        .mass
-        .iter()
-        .zip(&particles.velocity)
-        .map(|(&m, &v)| 0.5 * m * v.length_squared())
-        .sum()
+    kinetic_energy_of(masses_with(particles, &particles.velocity))
 }
 
 /// Total momentum `sum m v`.
 pub fn momentum<V: Vector>(particles: &Particles<V>) -> V {
-    particles
-        .mass
-        .iter()
-        .zip(&particles.velocity)
-        .fold(V::ZERO, |acc, (&m, &v)| acc + v * m)
+    momentum_of(masses_with(particles, &particles.velocity))
 }
 
 /// Gravitational potential energy `sum -m g . x` (zero at the origin).
 pub fn potential_energy<V: Vector>(particles: &Particles<V>, gravity: V) -> f64 {
-    particles
-        .mass
-        .iter()
-        .zip(&particles.position)
-        .map(|(&m, &x)| -m * gravity.dot(x))
-        .sum()
+    potential_energy_of(masses_with(particles, &particles.position), gravity)
+}
+
+/// Each particle's mass with its entry of `values`, in the particles' order.
+fn masses_with<'a, V: Vector>(
+    particles: &'a Particles<V>,
+    values: &'a [V],
+) -> impl Iterator<Item = (f64, V)> + 'a {
+    particles.mass.iter().copied().zip(values.iter().copied())
+}
+
+/// [`kinetic_energy`] of `(mass, velocity)` pairs, summed in their order.
+pub(crate) fn kinetic_energy_of<V: Vector>(items: impl Iterator<Item = (f64, V)>) -> f64 {
+    items.map(|(m, v)| 0.5 * m * v.length_squared()).sum()
+}
+
+/// [`momentum`] of `(mass, velocity)` pairs, summed in their order.
+pub(crate) fn momentum_of<V: Vector>(items: impl Iterator<Item = (f64, V)>) -> V {
+    items.fold(V::ZERO, |acc, (m, v)| acc + v * m)
+}
+
+/// [`potential_energy`] of `(mass, position)` pairs, summed in their order.
+pub(crate) fn potential_energy_of<V: Vector>(
+    items: impl Iterator<Item = (f64, V)>,
+    gravity: V,
+) -> f64 {
+    items.map(|(m, x)| -m * gravity.dot(x)).sum()
 }
 
 /// What one step did and the state it left.

@@ -44,7 +44,7 @@ impl<V: Vector> Summary<'_, V> {
         };
         println!(
             "particles   {} ({}D), broad phase {broad}, {} threads",
-            world.particles().len(),
+            world.len(),
             V::DIM,
             rayon::current_num_threads()
         );
