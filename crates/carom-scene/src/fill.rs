@@ -580,9 +580,10 @@ impl<V: Vector> PlacementGrid<V> {
         false
     }
 
-    /// Asks the processor to fetch the cell heads [`PlacementGrid::overlaps`] would read for
-    /// a particle of `radius` at `x`; changes nothing.
-    fn prefetch(&self, x: V, radius: f64) {
+    /// The first and last cell per axis that can hold a particle touching one of `radius` at
+    /// `x`: within reach, widened past rounding (see carom_engine::grid). Reach is at most a
+    /// cell, so at most 4 cells per axis.
+    fn cell_range(&self, x: V, radius: f64) -> ([usize; 3], [usize; 3]) {
         let reach = radius + self.max_radius;
         let mut lo = [0usize; 3];
         let mut hi = [0usize; 3];
@@ -592,6 +593,13 @@ impl<V: Vector> PlacementGrid<V> {
             lo[a] = self.axis_cell(a, c - widened);
             hi[a] = self.axis_cell(a, c + widened);
         }
+        (lo, hi)
+    }
+
+    /// Asks the processor to fetch the cell heads [`PlacementGrid::overlaps`] would read for
+    /// a particle of `radius` at `x`; changes nothing.
+    fn prefetch(&self, x: V, radius: f64) {
+        let (lo, hi) = self.cell_range(x, radius);
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
                 let row = self.linear([lo[0], y, z]);
@@ -604,15 +612,7 @@ impl<V: Vector> PlacementGrid<V> {
     /// [`PlacementGrid::overlaps`] would read for a particle of `radius` at `x` (reading the
     /// cell heads, best fetched before with [`PlacementGrid::prefetch`]); changes nothing.
     fn prefetch_chains(&self, x: V, radius: f64) {
-        let reach = radius + self.max_radius;
-        let mut lo = [0usize; 3];
-        let mut hi = [0usize; 3];
-        for a in 0..V::DIM {
-            let c = x.get(a);
-            let widened = carom_engine::grid::widened_reach(c, reach);
-            lo[a] = self.axis_cell(a, c - widened);
-            hi[a] = self.axis_cell(a, c + widened);
-        }
+        let (lo, hi) = self.cell_range(x, radius);
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
                 let row = self.linear([0, y, z]);
@@ -627,17 +627,7 @@ impl<V: Vector> PlacementGrid<V> {
 
     /// True when a particle of `radius` at `x` would overlap one already placed.
     fn overlaps(&self, x: V, radius: f64) -> bool {
-        // Cells within reach of x, widened past rounding (see carom_engine::grid): reach is at
-        // most a cell, so at most 4 cells per axis.
-        let reach = radius + self.max_radius;
-        let mut lo = [0usize; 3];
-        let mut hi = [0usize; 3];
-        for a in 0..V::DIM {
-            let c = x.get(a);
-            let widened = carom_engine::grid::widened_reach(c, reach);
-            lo[a] = self.axis_cell(a, c - widened);
-            hi[a] = self.axis_cell(a, c + widened);
-        }
+        let (lo, hi) = self.cell_range(x, radius);
         // Every cell's head first, then the chains: the heads are independent loads, each
         // likely a cache miss, and the processor fetches them together instead of one after
         // another. (Whether any placed particle overlaps does not depend on the order.)
