@@ -19,7 +19,7 @@ pub fn potential_energy<V: Vector>(particles: &Particles<V>, gravity: V) -> f64 
 }
 
 /// Each particle's mass with its entry of `values`, in the particles' order.
-fn masses_with<'a, V: Vector>(
+pub(crate) fn masses_with<'a, V: Vector>(
     particles: &'a Particles<V>,
     values: &'a [V],
 ) -> impl Iterator<Item = (f64, V)> + 'a {

@@ -126,18 +126,21 @@ pub fn thermal_sum<V: Vector>(mass: &[f64], velocity: &[V]) -> f64 {
 /// Granular temperature `sum m |v - u|^2 / (d N)`, summed in id order with `u` taken first
 /// (two passes: exact however fast the whole moves).
 pub fn temperature<V: Vector>(particles: &Particles<V>) -> f64 {
-    let n = particles.len();
+    temperature_of(|| crate::diagnostics::masses_with(particles, &particles.velocity))
+}
+
+/// [`temperature`] of the `(mass, velocity)` pairs that `items` gives, in their order (it is
+/// called once per pass).
+pub(crate) fn temperature_of<V: Vector, I: Iterator<Item = (f64, V)>>(
+    items: impl Fn() -> I,
+) -> f64 {
+    let n = items().count();
     if n == 0 {
         return 0.0;
     }
-    let total: f64 = particles.mass.iter().sum();
-    let mean = crate::diagnostics::momentum(particles) * (1.0 / total);
-    let sum: f64 = particles
-        .mass
-        .iter()
-        .zip(&particles.velocity)
-        .map(|(&m, &v)| m * (v - mean).length_squared())
-        .sum();
+    let total: f64 = items().map(|(m, _)| m).sum();
+    let mean = crate::diagnostics::momentum_of(items()) * (1.0 / total);
+    let sum: f64 = items().map(|(m, v)| m * (v - mean).length_squared()).sum();
     sum / (V::DIM * n) as f64
 }
 

@@ -666,3 +666,40 @@ impl<V: Vector> PlacementGrid<V> {
         false
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DVec2, DVec3};
+    use rand::SeedableRng;
+
+    /// The look-ahead's count of a velocity's draws is the one `Fill::velocity` makes.
+    fn draws_match<V: Vector>() {
+        let fill = Fill {
+            count: 1,
+            radius: 1.0,
+            mass: 1.0,
+            speed: 3.0,
+            base_velocity: V::ZERO,
+            region: Aabb::new(V::ZERO, V::from_slice(&[1.0; 3])).unwrap(),
+        };
+        let mut drawn = Pcg64::seed_from_u64(7);
+        fill.velocity(&mut drawn);
+        let mut skipped = Pcg64::seed_from_u64(7);
+        for _ in 0..VELOCITY_DRAWS[V::DIM - 1] {
+            skipped.random::<u64>();
+        }
+        assert_eq!(
+            drawn.random::<u64>(),
+            skipped.random::<u64>(),
+            "{}D",
+            V::DIM
+        );
+    }
+
+    #[test]
+    fn the_look_ahead_skips_a_velocity_exactly() {
+        draws_match::<DVec2>();
+        draws_match::<DVec3>();
+    }
+}

@@ -462,7 +462,7 @@ impl<V: Vector> World<V> {
             time: self.time(),
             kinetic_energy: self.kinetic_energy(),
             potential_energy: self.potential_energy(),
-            temperature: observe::temperature(self.particles()),
+            temperature: observe::temperature_of(|| self.masses_by_id_with(&self.store.velocity)),
             collisions: self.tally.collisions,
             pressure: self.tally.pressure(thermal, V::DIM, volume),
             max_overlap,
