@@ -34,7 +34,7 @@
 
 use crate::broadphase::Pair;
 use crate::frontier::{Frontier, Stamps, Walk};
-use crate::solver::Row;
+use crate::solver::{Row, RowRecord, RowsMut};
 use crate::vector::Vector;
 
 /// A particle touching a plane: `(slot, plane index)`.
@@ -101,11 +101,31 @@ impl From<bool> for Change {
     }
 }
 
-/// A rule applied to one pair: its row and the two particles' values (velocities or
-/// positions); says what it changed. Used with a work list ([`Visit`]), a rule that returns
-/// [`Change::Nothing`] must have changed nothing.
-pub(crate) trait PairRule<V>: Fn(&mut Row<V>, &mut V, &mut V) -> Change + Sync {}
-impl<V, F: Fn(&mut Row<V>, &mut V, &mut V) -> Change + Sync> PairRule<V> for F {}
+/// A rule applied to one pair: its row (both parts) and the two particles' values (velocities
+/// or positions); says what it changed. Used with a work list ([`Visit`]), a rule that returns
+/// [`Change::Nothing`] must have changed nothing. (A rule that never reads the
+/// [`RowRecord`] never brings it from memory.)
+pub(crate) trait PairRule<V>:
+    Fn(&mut Row<V>, &mut RowRecord<V>, &mut V, &mut V) -> Change + Sync
+{
+}
+impl<V, F: Fn(&mut Row<V>, &mut RowRecord<V>, &mut V, &mut V) -> Change + Sync> PairRule<V>
+    for F
+{
+}
+
+/// Rows a span of work owns: split in two at an index, or empty.
+pub(crate) trait Split: Default + Send + Sized {
+    /// `..at` and `at..`.
+    fn split_at_mut(self, at: usize) -> (Self, Self);
+}
+
+impl<T: Send> Split for &mut [T] {
+    #[inline]
+    fn split_at_mut(self, at: usize) -> (Self, Self) {
+        <[T]>::split_at_mut(self, at)
+    }
+}
 
 /// The same for a particle against a plane.
 pub(crate) trait PlaneRule<V, R>: Fn(&mut R, &mut V) -> Change + Sync {}
@@ -211,7 +231,7 @@ impl Blocks {
         stamps: &mut Stamps,
         visit: Visit,
         pairs: &[Pair],
-        rows: &mut [Row<V>],
+        mut rows: RowsMut<V>,
         reverse: bool,
         rule: &impl PairRule<V>,
     ) -> (u64, u64) {
@@ -223,7 +243,7 @@ impl Blocks {
                 stamps.reborrow(),
                 visit,
                 pairs,
-                rows,
+                rows.reborrow(),
                 parity,
                 reverse,
                 rule,
@@ -240,7 +260,7 @@ impl Blocks {
         exchange: &mut E,
         data: &mut [V],
         pairs: &[Pair],
-        rows: &mut [Row<V>],
+        rows: RowsMut<V>,
         rule: &impl PairRule<V>,
     ) -> (u64, u64) {
         self.sweep_pairs(
@@ -263,7 +283,7 @@ impl Blocks {
         stamps: Stamps,
         visit: Visit,
         pairs: &[Pair],
-        rows: &mut [Row<V>],
+        rows: RowsMut<V>,
         global_parity: usize,
         reverse: bool,
         rule: &impl PairRule<V>,
@@ -284,7 +304,7 @@ impl Blocks {
                     slots: &mut [V],
                     stamps: Stamps,
                     row_base: usize,
-                    rows: &mut [Row<V>]| {
+                    rows: RowsMut<V>| {
             let span = Span {
                 block: parity + 2 * c,
                 slot_base,
@@ -303,7 +323,7 @@ impl Blocks {
             &row,
             &mut data[s0..],
             stamps.split_at(s0).1,
-            &mut rows[r0..row(spans)],
+            rows.split_at_mut(row(spans)).0.split_at_mut(r0).1,
             &work,
         )
     }
@@ -341,7 +361,7 @@ impl Blocks {
                     let (i, j) = pairs[k];
                     let (i, j) = (i as usize - slot_base, j as usize - slot_base);
                     let (a, b) = pair_mut(slots, i, j);
-                    let change = rule(&mut rows[k - row_base], a, b);
+                    let change = rule(&mut rows.row[k - row_base], &mut rows.record[k - row_base], a, b);
                     if change == Change::Nothing {
                         return None;
                     }
@@ -363,7 +383,7 @@ impl Blocks {
             // (pairs reaching beyond the span are leftovers)
             if j < limit && visit.wants(&stamps, i, j) {
                 let (a, b) = pair_mut(slots, i, j);
-                let change = rule(&mut rows[k - row_base], a, b);
+                let change = rule(&mut rows.row[k - row_base], &mut rows.record[k - row_base], a, b);
                 if change != Change::Nothing {
                     visit.stamp(&mut stamps, i, j);
                     changed += change.count();
@@ -452,15 +472,15 @@ impl Blocks {
 /// start at span `spans.start`'s boundaries), splitting in halves on the thread pool when
 /// `parallel`. The spans are disjoint, so the result does not depend on how they are scheduled.
 #[allow(clippy::too_many_arguments)]
-fn split_run<T: Send, R: Send>(
+fn split_run<T: Send, R: Split>(
     parallel: bool,
     spans: std::ops::Range<usize>,
     slot: &(impl Fn(usize) -> usize + Sync),
     row: &(impl Fn(usize) -> usize + Sync),
     data: &mut [T],
     stamps: Stamps,
-    rows: &mut [R],
-    work: &(impl Fn(usize, usize, &mut [T], Stamps, usize, &mut [R]) -> u64 + Sync),
+    rows: R,
+    work: &(impl Fn(usize, usize, &mut [T], Stamps, usize, R) -> u64 + Sync),
 ) -> u64 {
     if !parallel || spans.len() <= 1 {
         let mut total = 0;
@@ -520,7 +540,7 @@ struct Span<'a, V> {
     stamps: Stamps<'a>,
     /// Index of the first row in `rows`.
     row_base: usize,
-    rows: &'a mut [Row<V>],
+    rows: RowsMut<'a, V>,
 }
 
 /// `&mut s[i]` and `&mut s[j]` at once, for `i < j`.
@@ -548,12 +568,12 @@ pub(crate) trait Exchange<V: Vector> {
         stamps: &mut Stamps,
         visit: Visit,
         pairs: &[Pair],
-        rows: &mut [Row<V>],
+        rows: RowsMut<V>,
         rule: &impl PairRule<V>,
     ) -> u64;
     /// Copies what the leftover rules changed in this process's own leftover rows back into
     /// `rows` (a process that runs the leftovers on a copy of every process's rows).
-    fn settle_rows(&mut self, blocks: &Blocks, rows: &mut [Row<V>]);
+    fn settle_rows(&mut self, blocks: &Blocks, rows: RowsMut<V>);
     /// Marks the impulses now accumulated as the ones the relax pass kept (`Row::kept`) on the
     /// rows this exchange runs for every process (the own rows are marked by the caller).
     fn keep_impulses(&mut self);
@@ -578,7 +598,7 @@ impl<V: Vector> Exchange<V> for Alone {
         stamps: &mut Stamps,
         visit: Visit,
         pairs: &[Pair],
-        rows: &mut [Row<V>],
+        rows: RowsMut<V>,
         rule: &impl PairRule<V>,
     ) -> u64 {
         let mut changed = 0;
@@ -589,7 +609,7 @@ impl<V: Vector> Exchange<V> for Alone {
                 continue;
             }
             let (a, b) = pair_mut(data, i, j);
-            let change = rule(&mut rows[k as usize], a, b);
+            let change = rule(&mut rows.row[k as usize], &mut rows.record[k as usize], a, b);
             if change != Change::Nothing {
                 visit.stamp(stamps, i, j);
                 changed += change.count();
@@ -598,7 +618,7 @@ impl<V: Vector> Exchange<V> for Alone {
         changed
     }
     #[inline]
-    fn settle_rows(&mut self, _blocks: &Blocks, _rows: &mut [Row<V>]) {}
+    fn settle_rows(&mut self, _blocks: &Blocks, _rows: RowsMut<V>) {}
     #[inline]
     fn keep_impulses(&mut self) {}
     #[inline]

@@ -9,7 +9,7 @@ use super::wire::{Reader, Writer};
 use crate::broadphase::Pair;
 use crate::frontier::Stamps;
 use crate::schedule::{pair_mut, Blocks, Change, Exchange, PairRule, Visit};
-use crate::solver::Row;
+use crate::solver::{Row, RowRecord, Rows, RowsMut};
 use crate::vector::Vector;
 
 /// The rank that borrows `rank`'s first block (in the sweeps of `parity`, or at all when
@@ -33,56 +33,54 @@ pub(super) fn lender(partition: &Partition, rank: usize, parity: Option<usize>) 
 }
 
 /// Encodes a solver row.
-pub(super) fn write_row<V: Vector>(w: &mut Writer, row: &Row<V>) {
+pub(super) fn write_row<V: Vector>(w: &mut Writer, row: &Row<V>, record: &RowRecord<V>) {
     w.vector(row.normal)
-        .f64(row.mass[0])
-        .f64(row.mass[1])
+        .f64(record.mass[0])
+        .f64(record.mass[1])
         .f64(row.inverse_mass[0])
         .f64(row.inverse_mass[1])
-        .f64(row.effective_mass)
-        .f64(row.radius[0])
-        .f64(row.radius[1])
+        .f64(record.radius[0])
+        .f64(record.radius[1])
         .f64(row.impulse)
-        .f64(row.kept)
+        .f64(record.kept)
         .f64(row.bounce)
-        .f64(row.overlap)
+        .f64(record.overlap)
         .f64(row.allowance)
-        .f64(row.distance)
+        .f64(record.distance)
         .f64(row.delivered)
         .u32(row.touching as u32 | (row.met as u32) << 1 | (row.impact as u32) << 2);
 }
 
 /// Decodes a solver row.
-pub(super) fn read_row<V: Vector>(r: &mut Reader) -> Row<V> {
-    Row {
-        normal: r.vector(),
-        mass: [r.f64(), r.f64()],
-        inverse_mass: [r.f64(), r.f64()],
-        effective_mass: r.f64(),
-        radius: [r.f64(), r.f64()],
-        impulse: r.f64(),
-        kept: r.f64(),
-        bounce: r.f64(),
-        overlap: r.f64(),
-        allowance: r.f64(),
-        distance: r.f64(),
-        delivered: r.f64(),
-        touching: false,
-        met: false,
-        impact: false,
+pub(super) fn read_row<V: Vector>(r: &mut Reader) -> (Row<V>, RowRecord<V>) {
+    let normal = r.vector();
+    let mass = [r.f64(), r.f64()];
+    let inverse_mass = [r.f64(), r.f64()];
+    let radius = [r.f64(), r.f64()];
+    let (impulse, kept, bounce, overlap) = (r.f64(), r.f64(), r.f64(), r.f64());
+    let (allowance, distance, delivered) = (r.f64(), r.f64(), r.f64());
+    let bits = r.u32();
+    let row = Row {
+        normal,
+        inverse_mass,
+        impulse,
+        bounce,
+        allowance,
+        delivered,
+        touching: bits & 1 != 0,
+        met: bits & 2 != 0,
+        impact: bits & 4 != 0,
+    };
+    let record = RowRecord {
+        mass,
+        radius,
+        kept,
+        overlap,
+        distance,
         // (split runs refuse periodic axes, so no row of theirs is shifted)
         shift: V::ZERO,
-    }
-    .flags(r.u32())
-}
-
-impl<V> Row<V> {
-    fn flags(mut self, bits: u32) -> Self {
-        self.touching = bits & 1 != 0;
-        self.met = bits & 2 != 0;
-        self.impact = bits & 4 != 0;
-        self
-    }
+    };
+    (row, record)
 }
 
 /// This step's leftover contacts of every rank, in global order, with their rows: every rank
@@ -92,7 +90,7 @@ pub(super) struct Leftovers<V> {
     /// Indices into `slots` of each contact, in global order.
     pairs: Vec<(u32, u32)>,
     /// Every contact's row.
-    rows: Vec<Row<V>>,
+    rows: Rows<V>,
     /// Every particle some leftover involves, by ascending global slot.
     slots: Vec<u32>,
     /// `slots[own.clone()]` are this rank's.
@@ -111,14 +109,14 @@ impl<V: Vector> Leftovers<V> {
         own: usize,
         blocks: &Blocks,
         pairs: &[Pair],
-        rows: &[Row<V>],
+        rows: &Rows<V>,
     ) {
         let first = first_slot as u32;
         let mut mine = Writer::default();
         for &k in &blocks.leftovers {
             let (i, j) = pairs[k as usize];
             mine.u32(first + i).u32(first + j);
-            write_row(&mut mine, &rows[k as usize]);
+            write_row(&mut mine, &rows.row[k as usize], &rows.record[k as usize]);
         }
         let mut global = Vec::new();
         self.rows.clear();
@@ -228,7 +226,7 @@ impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
         _stamps: &mut Stamps,
         _visit: Visit,
         _pairs: &[Pair],
-        _rows: &mut [Row<V>],
+        _rows: RowsMut<V>,
         rule: &impl PairRule<V>,
     ) -> u64 {
         let l = &mut *self.leftovers;
@@ -247,9 +245,10 @@ impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
             }
         }
         let mut changed = 0;
-        for (&(a, b), row) in l.pairs.iter().zip(l.rows.iter_mut()) {
+        let rows = l.rows.row.iter_mut().zip(l.rows.record.iter_mut());
+        for (&(a, b), (row, record)) in l.pairs.iter().zip(rows) {
             let (va, vb) = pair_mut(&mut values, a as usize, b as usize);
-            changed += (rule(row, va, vb) == Change::Counted) as u64;
+            changed += (rule(row, record, va, vb) == Change::Counted) as u64;
         }
         for k in l.own.clone() {
             data[l.slots[k] as usize - self.first_slot] = values[k];
@@ -257,16 +256,20 @@ impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
         changed
     }
 
-    fn settle_rows(&mut self, blocks: &Blocks, rows: &mut [Row<V>]) {
+    fn settle_rows(&mut self, blocks: &Blocks, rows: RowsMut<V>) {
         let l = &*self.leftovers;
-        for (&k, row) in blocks.leftovers.iter().zip(&l.rows[l.own_rows.clone()]) {
-            rows[k as usize] = *row;
+        let own = l.own_rows.clone();
+        let settled = l.rows.row[own.clone()].iter().zip(&l.rows.record[own]);
+        for (&k, (row, record)) in blocks.leftovers.iter().zip(settled) {
+            rows.row[k as usize] = *row;
+            rows.record[k as usize] = *record;
         }
     }
 
     fn keep_impulses(&mut self) {
-        for row in &mut self.leftovers.rows {
-            row.kept = row.impulse;
+        let rows = &mut self.leftovers.rows;
+        for (row, record) in rows.row.iter().zip(rows.record.iter_mut()) {
+            record.kept = row.impulse;
         }
     }
 

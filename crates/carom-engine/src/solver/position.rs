@@ -18,14 +18,20 @@ fn clearly_apart<V: Vector>(delta: V, limit: f64) -> bool {
 
 /// Moves one overlapping pair apart down to `depth` times the smaller radius.
 #[inline]
-pub(super) fn separate_pair<V: Vector>(row: &Row<V>, xi: &mut V, xj: &mut V, depth: f64) -> Change {
+pub(super) fn separate_pair<V: Vector>(
+    row: &Row<V>,
+    record: &RowRecord<V>,
+    xi: &mut V,
+    xj: &mut V,
+    depth: f64,
+) -> Change {
     // (moving `x_j` moves its image by as much)
-    let image = row.image(*xj);
-    if clearly_apart(*xi - image, row.reach() - depth * row.min_radius()) {
+    let image = record.image(*xj);
+    if clearly_apart(*xi - image, record.reach() - depth * record.min_radius()) {
         return Change::Nothing;
     }
     let (normal, distance) = contact_normal(*xi, image);
-    let overlap = row.reach() - distance - depth * row.min_radius();
+    let overlap = record.reach() - distance - depth * record.min_radius();
     if overlap <= 0.0 || rounding(overlap, xi.length_squared() + xj.length_squared()) {
         return Change::Nothing;
     }
@@ -34,7 +40,7 @@ pub(super) fn separate_pair<V: Vector>(row: &Row<V>, xi: &mut V, xj: &mut V, dep
     let share = overlap / (wi + wj);
     *xi += normal * (share * wi);
     *xj -= normal * (share * wj);
-    Change::counted_if(overlap > POSITION_TOLERANCE * row.min_radius())
+    Change::counted_if(overlap > POSITION_TOLERANCE * record.min_radius())
 }
 
 /// Position phase: sweeps over the pairs and plane contacts (in the same order as the velocity
@@ -58,7 +64,9 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
     // sinking into itself (52 % of r deep at step 1600, 8000 spheres in a deep box 36 %; with
     // the slop left: 1.0 %). A stack sinks by the slop at each contact instead (0.1 % of r).
     let depth = SLOP_FRACTION;
-    let push_apart = |row: &mut Row<V>, xi: &mut V, xj: &mut V| separate_pair(row, xi, xj, depth);
+    let push_apart = |row: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
+        separate_pair(row, record, xi, xj, depth)
+    };
     let out_of_plane = |row: &mut PlaneRow<V>, x: &mut V| {
         let plane = &planes[row.plane as usize];
         let depth = row.radius - plane.signed_distance(*x);
@@ -80,7 +88,7 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
             &mut c.work.stamps,
             this,
             c.pairs,
-            c.rows,
+            c.rows.reborrow(),
             false,
             &push_apart,
         );
@@ -105,33 +113,33 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
             plane.push_out_in_place(x, r);
         }
     };
-    let finish = |row: &mut Row<V>, xi: &mut V, xj: &mut V| {
+    let finish = |row: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
         // (a sleeping particle, of no inverse mass, stays where it sleeps)
         if !planes.is_empty() {
             if row.inverse_mass[0] > 0.0 {
-                out_of_all_planes(xi, row.radius[0]);
+                out_of_all_planes(xi, record.radius[0]);
             }
             if row.inverse_mass[1] > 0.0 {
-                out_of_all_planes(xj, row.radius[1]);
+                out_of_all_planes(xj, record.radius[1]);
             }
         }
-        let image = row.image(*xj);
-        let overlap = if clearly_apart(*xi - image, row.reach()) {
+        let image = record.image(*xj);
+        let overlap = if clearly_apart(*xi - image, record.reach()) {
             0.0
         } else {
             let (_, distance) = contact_normal(*xi, image);
-            ((row.reach() - distance) / row.min_radius()).max(0.0)
+            ((record.reach() - distance) / record.min_radius()).max(0.0)
         };
-        if row.overlap.to_bits() != overlap.to_bits() {
-            row.overlap = overlap;
+        if record.overlap.to_bits() != overlap.to_bits() {
+            record.overlap = overlap;
         }
         Change::Nothing
     };
-    blocks.every_pair(exchange, position, c.pairs, c.rows, &finish);
+    blocks.every_pair(exchange, position, c.pairs, c.rows.reborrow(), &finish);
     if settings.planes_in_move(planes, gravity) {
         keep_energy(velocity, c, gravity);
     }
-    exchange.settle_rows(blocks, c.rows);
-    let local = c.rows.iter().map(|r| r.overlap).fold(0.0, f64::max);
+    exchange.settle_rows(blocks, c.rows.reborrow());
+    let local = c.rows.record.iter().map(|r| r.overlap).fold(0.0, f64::max);
     exchange.largest(local)
 }

@@ -32,7 +32,13 @@ pub(super) enum Pass {
 /// The lecture's rule for one pair: if it overlaps and approaches, its response with
 /// restitution `k`.
 #[inline]
-pub(super) fn lecture_pair<V: Vector>(row: &mut Row<V>, vi: &mut V, vj: &mut V, k: f64) -> bool {
+pub(super) fn lecture_pair<V: Vector>(
+    row: &mut Row<V>,
+    record: &RowRecord<V>,
+    vi: &mut V,
+    vj: &mut V,
+    k: f64,
+) -> bool {
     let vn = row.normal.dot(*vi - *vj);
     if !(row.touching && approaching(vn, vi.length_squared() + vj.length_squared())) {
         return false;
@@ -43,18 +49,18 @@ pub(super) fn lecture_pair<V: Vector>(row: &mut Row<V>, vi: &mut V, vj: &mut V, 
         // (against a sleeping particle, a fixed obstacle: the lecture's plane rule, relative)
         [_, 0.0] => {
             let change = n * (-(1.0 + k) * vn);
-            row.delivered += row.mass[0] * n.dot(change);
+            row.delivered += record.mass[0] * n.dot(change);
             *vi += change;
         }
         [0.0, _] => {
             let change = n * ((1.0 + k) * vn);
-            row.delivered -= row.mass[1] * n.dot(change);
+            row.delivered -= record.mass[1] * n.dot(change);
             *vj += change;
         }
         _ => {
             let before = *vi;
-            (*vi, *vj) = collide(n, *vi, *vj, row.mass[0], row.mass[1], k);
-            row.delivered += row.mass[0] * n.dot(*vi - before);
+            (*vi, *vj) = collide(n, *vi, *vj, record.mass[0], record.mass[1], k);
+            row.delivered += record.mass[0] * n.dot(*vi - before);
         }
     }
     true
@@ -100,7 +106,7 @@ pub(super) fn accumulate_pair<V: Vector>(
     let tolerance = RESIDUAL_FRACTION * resting;
     let vn = row.normal.dot(*vi - *vj);
     let goal = goal(pass, row.bounce, row.met, row.allowance);
-    let target = (row.impulse - (vn - goal) * row.effective_mass).max(0.0);
+    let target = (row.impulse - (vn - goal) * row.effective_mass()).max(0.0);
     // (meeting changes an impact's goal in the restitution pass: that is a change too)
     let newly_met = !row.met && target > 0.0;
     row.met |= newly_met;

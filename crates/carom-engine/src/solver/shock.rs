@@ -25,7 +25,7 @@ pub(super) fn shock<V: Vector, E: Exchange<V>>(
         c.blocks
             .every_plane(velocity, c.plane_contacts, c.plane_rows, &on_planes);
     }
-    let pairs = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+    let pairs = |row: &mut Row<V>, record: &mut RowRecord<V>, vi: &mut V, vj: &mut V| {
         if row.bounce > 0.0 {
             return Change::Nothing;
         }
@@ -41,7 +41,7 @@ pub(super) fn shock<V: Vector, E: Exchange<V>>(
             return Change::Nothing;
         }
         // (i above j: j holds and i takes the whole change; else the other way round)
-        let [mi, mj] = row.mass;
+        let [mi, mj] = record.mass;
         let impulse = if height > 0.0 {
             *vi += row.normal * short;
             short * mi
@@ -55,7 +55,7 @@ pub(super) fn shock<V: Vector, E: Exchange<V>>(
         Change::Counted
     };
     c.blocks
-        .every_pair(exchange, velocity, c.pairs, c.rows, &pairs);
+        .every_pair(exchange, velocity, c.pairs, c.rows.reborrow(), &pairs);
 }
 
 /// A contact whose normal is within this cosine of horizontal has no lower particle in a

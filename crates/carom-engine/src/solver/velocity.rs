@@ -72,9 +72,9 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         .enumerate()
     {
         if pass == Pass::Restitution {
-            exchange.settle_rows(c.blocks, c.rows);
-            for row in c.rows.iter_mut() {
-                row.kept = row.impulse;
+            exchange.settle_rows(c.blocks, c.rows.reborrow());
+            for (row, record) in c.rows.row.iter().zip(c.rows.record.iter_mut()) {
+                record.kept = row.impulse;
             }
             for row in c.plane_rows.iter_mut() {
                 row.kept = row.impulse;
@@ -131,7 +131,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         solve.motion += clock.elapsed();
         solve.responses += exchange.total(bounces);
     }
-    exchange.settle_rows(c.blocks, c.rows);
+    exchange.settle_rows(c.blocks, c.rows.reborrow());
     solve
 }
 
@@ -217,9 +217,9 @@ pub(super) fn relax<V: Vector, E: Exchange<V>>(
     let k = settings.restitution;
     let resting = settings.resting_speed;
     let lecture_pairs = settings.lecture_pairs();
-    let pair_rule = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+    let pair_rule = |row: &mut Row<V>, record: &mut RowRecord<V>, vi: &mut V, vj: &mut V| {
         if lecture_pairs {
-            lecture_pair(row, vi, vj, k).into()
+            lecture_pair(row, record, vi, vj, k).into()
         } else {
             accumulate_pair(row, vi, vj, pass, resting)
         }
@@ -259,7 +259,7 @@ pub(super) fn relax<V: Vector, E: Exchange<V>>(
             &mut c.work.stamps,
             this,
             c.pairs,
-            c.rows,
+            c.rows.reborrow(),
             reverse,
             &pair_rule,
         );
@@ -279,8 +279,8 @@ pub(super) fn place<V: Vector, E: Exchange<V>>(
     c: &mut Contacts<V>,
     h: f64,
 ) {
-    let pairs = |row: &mut Row<V>, xi: &mut V, xj: &mut V| {
-        row.place(*xi, *xj, h);
+    let pairs = |row: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
+        row.place(record, *xi, *xj, h);
         Change::Nothing
     };
     let planes = c.planes;
@@ -291,7 +291,7 @@ pub(super) fn place<V: Vector, E: Exchange<V>>(
     c.blocks
         .every_plane(position, c.plane_contacts, c.plane_rows, &on_planes);
     c.blocks
-        .every_pair(exchange, position, c.pairs, c.rows, &pairs);
+        .every_pair(exchange, position, c.pairs, c.rows.reborrow(), &pairs);
 }
 
 /// Marks this step's impacts (see [`integrate`]) from the velocities before any impulse, and
@@ -312,7 +312,7 @@ pub(super) fn classify<V: Vector, E: Exchange<V>>(
         return 0;
     }
     // The rows' allowances were made for the whole step; a substep closes a gap in less time.
-    let pairs = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+    let pairs = |row: &mut Row<V>, _: &mut RowRecord<V>, vi: &mut V, vj: &mut V| {
         let speed = -row.normal.dot(*vi - *vj);
         // An impact across a gap (a pair that would meet within the step) bounces too, when
         // the relax pass finds it meeting: as in Box2D, a speculative contact keeps the speed
@@ -334,7 +334,7 @@ pub(super) fn classify<V: Vector, E: Exchange<V>>(
         .every_plane(velocity, c.plane_contacts, c.plane_rows, &planes);
     let (in_blocks, leftovers) = c
         .blocks
-        .every_pair(exchange, velocity, c.pairs, c.rows, &pairs);
+        .every_pair(exchange, velocity, c.pairs, c.rows.reborrow(), &pairs);
     // (every process counts the leftovers: only whether there are any matters)
     on_planes + in_blocks + leftovers
 }
@@ -345,7 +345,7 @@ pub(super) fn warm_start<V: Vector, E: Exchange<V>>(
     velocity: &mut [V],
     c: &mut Contacts<V>,
 ) {
-    let push = |row: &mut Row<V>, vi: &mut V, vj: &mut V| {
+    let push = |row: &mut Row<V>, _: &mut RowRecord<V>, vi: &mut V, vj: &mut V| {
         if row.impulse > 0.0 {
             row.delivered += row.impulse;
             *vi += row.normal * (row.impulse * row.inverse_mass[0]);
@@ -362,5 +362,5 @@ pub(super) fn warm_start<V: Vector, E: Exchange<V>>(
     c.blocks
         .every_plane(velocity, c.plane_contacts, c.plane_rows, &on_planes);
     c.blocks
-        .every_pair(exchange, velocity, c.pairs, c.rows, &push);
+        .every_pair(exchange, velocity, c.pairs, c.rows.reborrow(), &push);
 }

@@ -272,7 +272,7 @@ impl<V: Vector> WorldBuilder<V> {
             broad_phase,
             reach: Vec::new(),
             pairs: Vec::new(),
-            rows: Vec::new(),
+            rows: Default::default(),
             plane_contacts: Vec::new(),
             plane_rows: Vec::new(),
             plane_buffers: Vec::new(),

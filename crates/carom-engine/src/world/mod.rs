@@ -40,7 +40,7 @@ use crate::periodic::Periodic;
 use crate::plane::{check_restitution, Plane};
 use crate::schedule::{Blocks, PlaneContact};
 use crate::sleep::{self, Sleepers};
-use crate::solver::{PlaneRow, Row};
+use crate::solver::{PlaneRow, Rows};
 use crate::step;
 use crate::timing::PhaseTimes;
 use crate::vector::Vector;
@@ -94,7 +94,7 @@ pub struct World<V: Vector> {
     /// This step's contact candidates (pairs within reach), as storage slots, sorted.
     pairs: Vec<Pair>,
     /// The solver's data for each pair.
-    rows: Vec<Row<V>>,
+    rows: Rows<V>,
     /// This step's particles within reach of a plane, sorted.
     plane_contacts: Vec<PlaneContact>,
     plane_rows: Vec<PlaneRow<V>>,
@@ -374,7 +374,7 @@ impl<V: Vector> World<V> {
             let mut c: Vec<Pair> = self
                 .pairs
                 .iter()
-                .zip(&self.rows)
+                .zip(&self.rows.row)
                 .filter(|(_, row)| row.touching)
                 .map(|(&(i, j), _)| by_id(i, j))
                 .collect();

@@ -122,7 +122,7 @@ impl<V: Vector> Phases for World<V> {
             }));
         self.memory.warm_rows(
             &self.pairs,
-            &mut self.rows,
+            &mut self.rows.row,
             &self.plane_contacts,
             &mut self.plane_rows,
         );
@@ -168,14 +168,14 @@ impl<V: Vector> Phases for World<V> {
         if self.all_asleep {
             return;
         }
-        let (rows, sleepers) = (&self.rows, &self.sleepers);
+        let (records, sleepers) = (&self.rows.record, &self.sleepers);
         let memory = &mut self.memory;
         let sleeps = |slot: u32| sleepers.sleeps(slot as usize);
         Memory::store_keeping_asleep(
             &mut memory.pairs,
             &mut memory.scratch,
             &self.pairs,
-            |k| rows[k].kept,
+            |k| records[k].kept,
             |&(i, _, _)| sleeps(i),
         );
         let plane_rows = &self.plane_rows;
@@ -351,7 +351,7 @@ impl<V: Vector> World<V> {
         (
             Contacts {
                 pairs: &self.pairs,
-                rows: &mut self.rows,
+                rows: self.rows.as_mut(),
                 plane_contacts: &self.plane_contacts,
                 plane_rows: &mut self.plane_rows,
                 planes: &self.planes,

@@ -167,14 +167,13 @@ impl<V: Vector> Subdomain<V> {
         let candidates = &self.candidates;
         let (search, sleepers) = (&self.search, &self.sleepers);
         self.rows.clear();
-        self.rows
-            .extend(candidates.iter().map(|&((i, j), (ki, kj))| {
+        for &((i, j), (ki, kj)) in candidates {
                 let (ki, kj) = (ki as usize, kj as usize);
                 // (a sleeper in a pair is a fixed obstacle: infinite mass)
                 let mass = |k: usize, slot: u32| {
                     solver::moving_mass(search.mass[k], sleepers.sleeps(slot as usize))
                 };
-                Row::new(
+                self.rows.push(Row::new(
                     search.position[ki],
                     search.position[kj],
                     search.radius[ki],
@@ -182,9 +181,9 @@ impl<V: Vector> Subdomain<V> {
                     mass(ki, i),
                     mass(kj, j),
                     dt,
-                )
-            }));
-        crate::broadphase::keep_headroom(&mut self.rows);
+                ));
+        }
+        self.rows.keep_headroom();
         self.agree_on_borrowing(link);
         self.blocks.plan(
             own + self.halo,
@@ -200,7 +199,7 @@ impl<V: Vector> Subdomain<V> {
         }
         self.memory.warm_rows(
             &self.pairs,
-            &mut self.rows,
+            &mut self.rows.row,
             &self.plane_contacts,
             &mut self.plane_rows,
         );

@@ -21,7 +21,7 @@ use crate::memory::{ContactImpulses, Memory};
 use crate::particles::Particles;
 use crate::plane::Plane;
 use crate::schedule::{Blocks, PlaneContact};
-use crate::solver::{PlaneRow, Row};
+use crate::solver::{PlaneRow, Rows};
 use crate::step;
 use crate::timing::PhaseTimes;
 use crate::vector::Vector;
@@ -74,7 +74,7 @@ pub struct Subdomain<V: Vector> {
     pairs: Vec<Pair>,
     /// The id of each pair's `j`.
     partners: Vec<u32>,
-    rows: Vec<Row<V>>,
+    rows: Rows<V>,
     plane_contacts: Vec<PlaneContact>,
     plane_rows: Vec<PlaneRow<V>>,
     /// Remembered impulses of the contacts this rank owns (relative slots), and the id of each
@@ -243,7 +243,7 @@ impl<V: Vector> Subdomain<V> {
             candidates: Vec::new(),
             pairs: Vec::new(),
             partners: Vec::new(),
-            rows: Vec::new(),
+            rows: Default::default(),
             plane_contacts: Vec::new(),
             plane_rows: Vec::new(),
             memory,

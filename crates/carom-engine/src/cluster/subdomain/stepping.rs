@@ -43,7 +43,7 @@ impl<V: Vector, T: Transport + ?Sized> Stepping<'_, '_, '_, V, T> {
         };
         let mut contacts = Contacts {
             pairs: &s.pairs,
-            rows: &mut s.rows,
+            rows: s.rows.as_mut(),
             plane_contacts: &s.plane_contacts,
             plane_rows: &mut s.plane_rows,
             planes: &s.planes,
@@ -135,15 +135,15 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
         s.memory.pairs.clear();
         s.memory_partners.clear();
         let mut kept = s.kept_asleep.iter().copied().peekable();
-        for ((&(i, j), row), &partner) in s.pairs.iter().zip(&s.rows).zip(&s.partners) {
+        for ((&(i, j), record), &partner) in s.pairs.iter().zip(&s.rows.record).zip(&s.partners) {
             while let Some((e, p)) = kept.next_if(|(e, _)| (e.0, e.1) < (i, j)) {
                 s.memory.pairs.push(e);
                 s.memory_partners.push(p);
             }
             // (a contact solved this step, with its sleeper fixed, remembers what it took)
             kept.next_if(|(e, _)| (e.0, e.1) == (i, j));
-            if row.kept > 0.0 {
-                s.memory.pairs.push((i, j, row.kept));
+            if record.kept > 0.0 {
+                s.memory.pairs.push((i, j, record.kept));
                 s.memory_partners.push(partner);
             }
         }
