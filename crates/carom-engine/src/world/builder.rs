@@ -272,7 +272,7 @@ impl<V: Vector> WorldBuilder<V> {
             broad_phase,
             reach: Vec::new(),
             pairs: Vec::new(),
-            rows: Default::default(),
+            rows: Rows::with_capacity(n),
             plane_contacts: Vec::new(),
             plane_rows: Vec::new(),
             plane_buffers: Vec::new(),
