@@ -6,9 +6,10 @@
 //! when, on reaching it, one of its particles is stamped at least `since`. Those are the
 //! contacts of the particles stamped at least `since` when the block starts, and the contacts
 //! after `k` (in the sweep's direction) of the particles the rule changed at `k`. The frontier
-//! visits exactly these, in the same order: a heap of contact indices, seeded with the first
-//! and fed with the second as the sweep goes. (Within one parity the blocks' slots are
-//! disjoint, so only the block itself changes its particles while it runs.)
+//! visits exactly these, in the same order: one bit per contact of the block, the first set
+//! before the walk and the second as it goes, taken in the sweep's direction. (Within one
+//! parity the blocks' slots are disjoint, so only the block itself changes its particles while
+//! it runs.)
 //!
 //! A falling gas of 10^6 discs makes about 45 such sweeps a step with a few hundred contacts
 //! still active; scanning all 10^6 contacts for them was a fifth of the step.
@@ -16,7 +17,7 @@
 use crate::broadphase::Pair;
 use rayon::prelude::*;
 use std::cell::RefCell;
-use std::collections::BinaryHeap;
+use std::ops::Range;
 
 /// Slots per group of stamps (see [`Stamps`]); block boundaries are multiples of it.
 pub(crate) const GROUP: usize = 64;
@@ -103,21 +104,6 @@ impl<'a> Stamps<'a> {
     }
 }
 
-/// When the heap has taken more entries than this fraction of the block's contacts (each
-/// contact is listed twice), a scan of the rest is cheaper (and gives the same result): in a
-/// pile a change runs through the whole block within one sweep.
-const SCAN_ABOVE: usize = 8;
-
-/// How a [`Frontier::walk`] ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Walk {
-    /// Every contact a scan would visit was visited.
-    Done,
-    /// Scanning is cheaper: scan the contacts past this one in the sweep's direction (all of
-    /// them when `None`). A scan from there visits exactly what the walk would have.
-    ScanPast(Option<usize>),
-}
-
 /// Each block's contacts by particle (see the module notes).
 #[derive(Debug, Default)]
 pub(crate) struct Frontier {
@@ -137,8 +123,9 @@ struct BlockIndex {
 }
 
 thread_local! {
-    /// A sweep's heap, per worker thread, kept between sweeps (no allocation after warm-up).
-    static HEAP: RefCell<Vec<u32>> = const { RefCell::new(Vec::new()) };
+    /// A walk's pending contacts, one bit per contact of its block, per worker thread, kept
+    /// between walks (no allocation after warm-up).
+    static PENDING: RefCell<Vec<u64>> = const { RefCell::new(Vec::new()) };
 }
 
 impl Frontier {
@@ -208,59 +195,63 @@ impl Frontier {
         self.ready = true;
     }
 
-    /// Visits block `block`'s contacts (of which it has `contacts`) as a scan would (see the
+    /// Visits block `block`'s contacts (the pair indices `contacts`) as a scan would (see the
     /// module notes), given the span's `stamps`: `visit(k, stamps)` applies the rule to
-    /// contact `k` and returns the span slots of its particles when it changed them. Stops
-    /// where a scan becomes cheaper (see [`Walk`]).
+    /// contact `k` and returns the span slots of its particles when it changed them.
+    ///
+    /// The contacts still to visit are bits, one per contact of the block, taken in the
+    /// sweep's direction; a change at `k` sets the bits of its particles' contacts past `k`,
+    /// which the walk then reaches in order. (It replaced a heap of indices, with a fall-back
+    /// to scanning once the heap outgrew an eighth of the block: on 10^6 falling discs the
+    /// velocity phase took 0.78-0.89x as long, the same bits.)
     pub fn walk(
         &self,
         block: usize,
-        contacts: usize,
+        contacts: Range<usize>,
         reverse: bool,
         stamps: &mut Stamps,
         since: u32,
         mut visit: impl FnMut(usize, &mut Stamps) -> Option<(usize, usize)>,
-    ) -> Walk {
+    ) {
         let index = &self.blocks[block];
         let of = |l: usize| &index.list[index.start[l] as usize..index.start[l + 1] as usize];
-        // (a max-heap: forwards, the smallest index comes first as the largest complement)
-        let key = |k: u32| if reverse { k } else { !k };
-        let mut budget = contacts.div_ceil(SCAN_ABOVE) * 2;
-        HEAP.with_borrow_mut(|seeds| {
-            seeds.clear();
+        let first = contacts.start;
+        let mark = |bits: &mut [u64], k: u32| {
+            let bit = k as usize - first;
+            bits[bit / 64] |= 1 << (bit % 64);
+        };
+        PENDING.with_borrow_mut(|bits| {
+            let words = contacts.len().div_ceil(64);
+            bits.clear();
+            bits.resize(words, 0);
             for l in stamps.since(since) {
-                let more = of(l);
-                if more.len() > budget {
-                    seeds.clear();
-                    return Walk::ScanPast(None);
+                for &k in of(l) {
+                    mark(bits, k);
                 }
-                budget -= more.len();
-                seeds.extend(more.iter().map(|&k| key(k)));
             }
-            let mut heap = BinaryHeap::from(std::mem::take(seeds));
-            let mut last = None;
-            while let Some(top) = heap.pop() {
-                let k = key(top);
-                if last == Some(k) {
-                    continue;
-                }
-                last = Some(k);
-                if let Some((i, j)) = visit(k as usize, stamps) {
-                    let more = of(i).len() + of(j).len();
-                    if more > budget {
-                        *seeds = heap.into_vec();
-                        return Walk::ScanPast(Some(k as usize));
-                    }
-                    budget -= more;
-                    for &m in of(i).iter().chain(of(j)) {
-                        if (m > k) != reverse && m != k {
-                            heap.push(key(m));
+            let word_order: &mut dyn Iterator<Item = usize> = if reverse {
+                &mut (0..words).rev()
+            } else {
+                &mut (0..words)
+            };
+            for w in word_order {
+                while bits[w] != 0 {
+                    let bit = if reverse {
+                        63 - bits[w].leading_zeros() as usize
+                    } else {
+                        bits[w].trailing_zeros() as usize
+                    };
+                    bits[w] &= !(1 << bit);
+                    let k = first + w * 64 + bit;
+                    if let Some((i, j)) = visit(k, stamps) {
+                        for &m in of(i).iter().chain(of(j)) {
+                            if (m as usize > k) != reverse && m as usize != k {
+                                mark(bits, m);
+                            }
                         }
                     }
                 }
             }
-            *seeds = heap.into_vec();
-            Walk::Done
         })
     }
 }
@@ -305,11 +296,11 @@ mod tests {
             let mut seen = Vec::new();
             let (mut slot, mut group) = ([0, 0, 1, 0, 0], [1]);
             let mut stamps = Stamps::new(&mut slot, &mut group);
-            let walked = f.walk(0, 400, reverse, &mut stamps, 1, |k, _| {
+            let step = |k: usize, _: &mut Stamps| {
                 seen.push(k);
                 Some(pairs[k]).map(|(i, j)| (i as usize, j as usize))
-            });
-            assert_eq!(walked, Walk::Done);
+            };
+            f.walk(0, 0..4, reverse, &mut stamps, 1, step);
             let expected = if reverse {
                 vec![2, 1, 0]
             } else {
@@ -317,19 +308,39 @@ mod tests {
             };
             assert_eq!(seen, expected, "reverse {reverse}");
         }
-        // too many seeds for the size: a scan instead
-        let (mut slot, mut group) = ([1; 5], [1]);
-        let mut stamps = Stamps::new(&mut slot, &mut group);
-        assert_eq!(
-            f.walk(0, 4, false, &mut stamps, 1, |_, _| None),
-            Walk::ScanPast(None)
-        );
-        // a budget that runs out on the way: the scan goes on past the last contact visited
+        // a visit that changes nothing passes nothing on
+        let mut seen = Vec::new();
         let (mut slot, mut group) = ([0, 1, 0, 0, 0], [1]);
         let mut stamps = Stamps::new(&mut slot, &mut group);
-        let walk = f.walk(0, 8, false, &mut stamps, 1, |k, _| {
-            Some(pairs[k]).map(|(i, j)| (i as usize, j as usize))
-        });
-        assert_eq!(walk, Walk::ScanPast(Some(0)));
+        let step = |k: usize, _: &mut Stamps| {
+            seen.push(k);
+            None
+        };
+        f.walk(0, 0..4, false, &mut stamps, 1, step);
+        assert_eq!(seen, vec![0, 1]);
+    }
+
+    #[test]
+    fn the_walk_takes_each_contact_once_across_words_in_order() {
+        // a star: slot 0 touches slots 1..=130 (contacts 0..130, more than two words of bits)
+        let pairs: Vec<Pair> = (1..=130).map(|j| (0, j)).collect();
+        let mut f = Frontier::default();
+        f.index(&pairs, &[0, pairs.len()], 256, 131, false);
+        for reverse in [false, true] {
+            let mut seen = Vec::new();
+            let (mut slot, mut group) = (vec![0; 131], vec![0; 3]);
+            let mut stamps = Stamps::new(&mut slot, &mut group);
+            stamps.set(0, 1);
+            let step = |k: usize, _: &mut Stamps| {
+                seen.push(k);
+                Some((0, k + 1))
+            };
+            f.walk(0, 0..pairs.len(), reverse, &mut stamps, 1, step);
+            let mut expected: Vec<usize> = (0..130).collect();
+            if reverse {
+                expected.reverse();
+            }
+            assert_eq!(seen, expected, "reverse {reverse}");
+        }
     }
 }

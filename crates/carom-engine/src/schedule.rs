@@ -33,7 +33,7 @@
 //! (`frontier.rs`) instead of scanning every contact, with the same result.
 
 use crate::broadphase::Pair;
-use crate::frontier::{Frontier, Stamps, Walk};
+use crate::frontier::{Frontier, Stamps};
 use crate::solver::{Row, RowRecord, RowsMut};
 use crate::vector::Vector;
 
@@ -109,10 +109,7 @@ pub(crate) trait PairRule<V>:
     Fn(&mut Row<V>, &mut RowRecord<V>, &mut V, &mut V) -> Change + Sync
 {
 }
-impl<V, F: Fn(&mut Row<V>, &mut RowRecord<V>, &mut V, &mut V) -> Change + Sync> PairRule<V>
-    for F
-{
-}
+impl<V, F: Fn(&mut Row<V>, &mut RowRecord<V>, &mut V, &mut V) -> Change + Sync> PairRule<V> for F {}
 
 /// Rows a span of work owns: split in two at an index, or empty.
 pub(crate) trait Split: Default + Send + Sized {
@@ -348,12 +345,12 @@ impl Blocks {
             rows,
         } = span;
         let limit = slots.len();
-        let mut mine = self.pair_start[block]..self.pair_start[block + 1];
+        let mine = self.pair_start[block]..self.pair_start[block + 1];
         let mut changed = 0;
         if visit.since > 0 && !stamps.is_empty() && self.frontier.ready() {
-            let walked = self.frontier.walk(
+            self.frontier.walk(
                 block,
-                mine.len(),
+                mine,
                 reverse,
                 &mut stamps,
                 visit.since,
@@ -361,7 +358,12 @@ impl Blocks {
                     let (i, j) = pairs[k];
                     let (i, j) = (i as usize - slot_base, j as usize - slot_base);
                     let (a, b) = pair_mut(slots, i, j);
-                    let change = rule(&mut rows.row[k - row_base], &mut rows.record[k - row_base], a, b);
+                    let change = rule(
+                        &mut rows.row[k - row_base],
+                        &mut rows.record[k - row_base],
+                        a,
+                        b,
+                    );
                     if change == Change::Nothing {
                         return None;
                     }
@@ -370,12 +372,7 @@ impl Blocks {
                     Some((i, j))
                 },
             );
-            match walked {
-                Walk::Done => return changed,
-                Walk::ScanPast(None) => {}
-                Walk::ScanPast(Some(k)) if reverse => mine.end = k,
-                Walk::ScanPast(Some(k)) => mine.start = k + 1,
-            }
+            return changed;
         }
         let mut one = |k: usize| {
             let (i, j) = pairs[k];
@@ -383,7 +380,12 @@ impl Blocks {
             // (pairs reaching beyond the span are leftovers)
             if j < limit && visit.wants(&stamps, i, j) {
                 let (a, b) = pair_mut(slots, i, j);
-                let change = rule(&mut rows.row[k - row_base], &mut rows.record[k - row_base], a, b);
+                let change = rule(
+                    &mut rows.row[k - row_base],
+                    &mut rows.record[k - row_base],
+                    a,
+                    b,
+                );
                 if change != Change::Nothing {
                     visit.stamp(&mut stamps, i, j);
                     changed += change.count();
@@ -609,7 +611,12 @@ impl<V: Vector> Exchange<V> for Alone {
                 continue;
             }
             let (a, b) = pair_mut(data, i, j);
-            let change = rule(&mut rows.row[k as usize], &mut rows.record[k as usize], a, b);
+            let change = rule(
+                &mut rows.row[k as usize],
+                &mut rows.record[k as usize],
+                a,
+                b,
+            );
             if change != Change::Nothing {
                 visit.stamp(stamps, i, j);
                 changed += change.count();

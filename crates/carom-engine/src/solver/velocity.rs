@@ -332,9 +332,9 @@ pub(super) fn classify<V: Vector, E: Exchange<V>>(
     let on_planes = c
         .blocks
         .every_plane(velocity, c.plane_contacts, c.plane_rows, &planes);
-    let (in_blocks, leftovers) = c
-        .blocks
-        .every_pair(exchange, velocity, c.pairs, c.rows.reborrow(), &pairs);
+    let (in_blocks, leftovers) =
+        c.blocks
+            .every_pair(exchange, velocity, c.pairs, c.rows.reborrow(), &pairs);
     // (every process counts the leftovers: only whether there are any matters)
     on_planes + in_blocks + leftovers
 }

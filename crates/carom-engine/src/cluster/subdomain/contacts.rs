@@ -168,20 +168,20 @@ impl<V: Vector> Subdomain<V> {
         let (search, sleepers) = (&self.search, &self.sleepers);
         self.rows.clear();
         for &((i, j), (ki, kj)) in candidates {
-                let (ki, kj) = (ki as usize, kj as usize);
-                // (a sleeper in a pair is a fixed obstacle: infinite mass)
-                let mass = |k: usize, slot: u32| {
-                    solver::moving_mass(search.mass[k], sleepers.sleeps(slot as usize))
-                };
-                self.rows.push(Row::new(
-                    search.position[ki],
-                    search.position[kj],
-                    search.radius[ki],
-                    search.radius[kj],
-                    mass(ki, i),
-                    mass(kj, j),
-                    dt,
-                ));
+            let (ki, kj) = (ki as usize, kj as usize);
+            // (a sleeper in a pair is a fixed obstacle: infinite mass)
+            let mass = |k: usize, slot: u32| {
+                solver::moving_mass(search.mass[k], sleepers.sleeps(slot as usize))
+            };
+            self.rows.push(Row::new(
+                search.position[ki],
+                search.position[kj],
+                search.radius[ki],
+                search.radius[kj],
+                mass(ki, i),
+                mass(kj, j),
+                dt,
+            ));
         }
         self.rows.keep_headroom();
         self.agree_on_borrowing(link);
