@@ -75,9 +75,13 @@ pub(crate) fn collect_pairs<F>(
         out.clear();
         let end = ((c + 1) * CHUNK).min(n);
         for i in c * CHUNK..end {
+            let first = out.len();
             search(i, out);
+            // (a chunk's pairs come in order of `i`; only each particle's few partners, found
+            // cell by cell, need sorting. A quicksort of the whole chunk was 1.5 % of the samples
+            // of `perf record` on the bench's 10^6 gas.)
+            out[first..].sort_unstable();
         }
-        out.sort_unstable();
         keep_headroom(out);
     };
     if n >= PARALLEL_SEARCH_MIN {
