@@ -19,7 +19,6 @@ fn clearly_apart<V: Vector>(delta: V, limit: f64) -> bool {
 /// Moves one overlapping pair apart down to `depth` times the smaller radius.
 #[inline]
 pub(super) fn separate_pair<V: Vector>(
-    row: &Row<V>,
     record: &RowRecord<V>,
     xi: &mut V,
     xj: &mut V,
@@ -36,7 +35,7 @@ pub(super) fn separate_pair<V: Vector>(
         return Change::Nothing;
     }
     // Inverse-mass shares: the lighter particle moves further.
-    let [wi, wj] = row.inverse_mass;
+    let [wi, wj] = record.inverse_mass();
     let share = overlap / (wi + wj);
     *xi += normal * (share * wi);
     *xj -= normal * (share * wj);
@@ -64,8 +63,8 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
     // sinking into itself (52 % of r deep at step 1600, 8000 spheres in a deep box 36 %; with
     // the slop left: 1.0 %). A stack sinks by the slop at each contact instead (0.1 % of r).
     let depth = SLOP_FRACTION;
-    let push_apart = |row: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
-        separate_pair(row, record, xi, xj, depth)
+    let push_apart = |_: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
+        separate_pair(record, xi, xj, depth)
     };
     let out_of_plane = |row: &mut PlaneRow<V>, x: &mut V| {
         let plane = &planes[row.plane as usize];
@@ -106,20 +105,21 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
     }
     // Planes last, for every particle the pair sweeps may have moved (the others moved only
     // out of their own planes above), so a walled box holds its particles; then measure.
-    // (this pass reads every row and both its particles: it writes only what changes, so the
-    // rows and positions it leaves as they were need not go back to memory)
+    // (this pass reads every row's record and both its particles: it writes only what
+    // changes, so the records and positions it leaves as they were need not go back to memory;
+    // like the sweeps above, it never reads the velocity part of a row)
     let out_of_all_planes = |x: &mut V, r: f64| {
         for plane in planes {
             plane.push_out_in_place(x, r);
         }
     };
-    let finish = |row: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
-        // (a sleeping particle, of no inverse mass, stays where it sleeps)
+    let finish = |_: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
+        // (a sleeping particle, of infinite mass, stays where it sleeps)
         if !planes.is_empty() {
-            if row.inverse_mass[0] > 0.0 {
+            if !record.sleeps(0) {
                 out_of_all_planes(xi, record.radius[0]);
             }
-            if row.inverse_mass[1] > 0.0 {
+            if !record.sleeps(1) {
                 out_of_all_planes(xj, record.radius[1]);
             }
         }

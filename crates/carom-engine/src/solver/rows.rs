@@ -170,6 +170,19 @@ impl<V: Vector> RowRecord<V> {
     pub fn min_radius(&self) -> f64 {
         self.radius[0].min(self.radius[1])
     }
+    /// `(1 / m_i, 1 / m_j)`: the bits of [`Row::inverse_mass`], worked out here so that the
+    /// position phase, which reads nothing else of the [`Row`], need not bring it in.
+    #[inline]
+    pub fn inverse_mass(&self) -> [f64; 2] {
+        [1.0 / self.mass[0], 1.0 / self.mass[1]]
+    }
+
+    /// Whether particle `side` (0 for `i`, 1 for `j`) sleeps this step (infinite mass, see
+    /// [`moving_mass`]).
+    #[inline]
+    pub fn sleeps(&self, side: usize) -> bool {
+        self.mass[side] == f64::INFINITY
+    }
 }
 
 /// A step's rows: each contact's [`Row`] and [`RowRecord`], at its pair's index in both.
