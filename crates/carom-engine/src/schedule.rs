@@ -33,7 +33,7 @@
 //! (`frontier.rs`) instead of scanning every contact, with the same result.
 
 use crate::broadphase::Pair;
-use crate::frontier::{Frontier, Stamps};
+use crate::frontier::{Frontier, Stamps, Walk};
 use crate::solver::{Row, RowRecord, RowsMut};
 use crate::vector::Vector;
 
@@ -345,12 +345,12 @@ impl Blocks {
             rows,
         } = span;
         let limit = slots.len();
-        let mine = self.pair_start[block]..self.pair_start[block + 1];
+        let mut mine = self.pair_start[block]..self.pair_start[block + 1];
         let mut changed = 0;
         if visit.since > 0 && !stamps.is_empty() && self.frontier.ready() {
-            self.frontier.walk(
+            let walked = self.frontier.walk(
                 block,
-                mine,
+                mine.clone(),
                 reverse,
                 &mut stamps,
                 visit.since,
@@ -372,7 +372,12 @@ impl Blocks {
                     Some((i, j))
                 },
             );
-            return changed;
+            match walked {
+                Walk::Done => return changed,
+                Walk::ScanPast(None) => {}
+                Walk::ScanPast(Some(k)) if reverse => mine.end = k,
+                Walk::ScanPast(Some(k)) => mine.start = k + 1,
+            }
         }
         let mut one = |k: usize| {
             let (i, j) = pairs[k];
