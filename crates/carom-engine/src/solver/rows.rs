@@ -29,7 +29,7 @@ pub(crate) fn moving_mass(mass: f64, sleeps: bool) -> f64 {
 /// Why two parts: a full pass over a step's rows costs what reading them from memory costs
 /// (at 10^6 discs, half a million rows, any pass over 152-byte rows took 5 ms on 2 cores, the
 /// speed of memory there), and a step makes some twenty such passes, most of them sweeps of
-/// the velocity phase. Those read this part alone: 72 bytes in 2D, 88 in 3D.
+/// the velocity phase. Those read this part alone: 72 bytes in 2D, 80 in 3D.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct Row<V> {
     /// Unit normal from `j` to `i` at the start of the velocity phase.
