@@ -63,6 +63,7 @@ pub(super) fn read_row<V: Vector>(r: &mut Reader) -> (Row<V>, RowRecord<V>) {
     let row = Row {
         normal,
         inverse_mass,
+        effective_mass: 1.0 / (inverse_mass[0] + inverse_mass[1]),
         impulse,
         bounce,
         allowance,

@@ -106,7 +106,7 @@ pub(super) fn accumulate_pair<V: Vector>(
     let tolerance = RESIDUAL_FRACTION * resting;
     let vn = row.normal.dot(*vi - *vj);
     let goal = goal(pass, row.bounce, row.met, row.allowance);
-    let target = (row.impulse - (vn - goal) * row.effective_mass()).max(0.0);
+    let target = (row.impulse - (vn - goal) * row.effective_mass).max(0.0);
     // (meeting changes an impact's goal in the restitution pass: that is a change too)
     let newly_met = !row.met && target > 0.0;
     row.met |= newly_met;
