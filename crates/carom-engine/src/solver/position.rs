@@ -140,6 +140,6 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
         keep_energy(velocity, c, gravity);
     }
     exchange.settle_rows(blocks, c.rows.reborrow());
-    let local = c.rows.record.iter().map(|r| r.overlap).fold(0.0, f64::max);
+    let local = c.rows.largest_overlap(blocks.parallel());
     exchange.largest(local)
 }

@@ -267,6 +267,38 @@ impl<'a, V> RowsMut<'a, V> {
     }
 }
 
+impl<V: Vector> RowsMut<'_, V> {
+    /// Marks every row's impulse as the one the relax pass kept ([`RowRecord::kept`]), on the
+    /// thread pool when `parallel` (each row's copy is its own: the same result either way).
+    /// (On 10^6 falling discs: 4.5-5.7 ms a step on 2 threads, 6.9-8.5 ms serial.)
+    pub fn keep_impulses(&mut self, parallel: bool) {
+        let keep = |(rows, records): (&[Row<V>], &mut [RowRecord<V>])| {
+            for (row, record) in rows.iter().zip(records) {
+                record.kept = row.impulse;
+            }
+        };
+        if parallel {
+            (self.row.par_chunks(ROW_CHUNK))
+                .zip(self.record.par_chunks_mut(ROW_CHUNK))
+                .for_each(keep);
+        } else {
+            keep((self.row, self.record));
+        }
+    }
+
+    /// The largest [`RowRecord::overlap`] (0 without rows), on the thread pool when
+    /// `parallel` (a maximum does not depend on the order it is taken in). (On 10^6 falling
+    /// discs: 1.8-2.0 ms a step on 2 threads, 2.2-3.0 ms serial.)
+    pub fn largest_overlap(&self, parallel: bool) -> f64 {
+        let overlap = |record: &RowRecord<V>| record.overlap;
+        if parallel {
+            self.record.par_iter().map(overlap).reduce(|| 0.0, f64::max)
+        } else {
+            self.record.iter().map(overlap).fold(0.0, f64::max)
+        }
+    }
+}
+
 impl<'a, V: Send> crate::schedule::Split for RowsMut<'a, V> {
     #[inline]
     fn split_at_mut(self, at: usize) -> (Self, Self) {

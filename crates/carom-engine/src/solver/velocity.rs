@@ -73,9 +73,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     {
         if pass == Pass::Restitution {
             exchange.settle_rows(c.blocks, c.rows.reborrow());
-            for (row, record) in c.rows.row.iter().zip(c.rows.record.iter_mut()) {
-                record.kept = row.impulse;
-            }
+            c.rows.keep_impulses(parallel);
             for row in c.plane_rows.iter_mut() {
                 row.kept = row.impulse;
             }
