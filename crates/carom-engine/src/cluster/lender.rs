@@ -268,10 +268,7 @@ impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
     }
 
     fn keep_impulses(&mut self) {
-        let rows = &mut self.leftovers.rows;
-        for (row, record) in rows.row.iter().zip(rows.record.iter_mut()) {
-            record.kept = row.impulse;
-        }
+        self.leftovers.rows.as_mut().keep_impulses(false);
     }
 
     fn total(&mut self, local: u64) -> u64 {
