@@ -57,6 +57,25 @@ impl<V: Vector> Plane<V> {
         (x - self.point).dot(self.normal)
     }
 
+    /// A lower bound of [`Plane::signed_distance`] over the box from `lo` to `hi`, exact in
+    /// floating point: no point of the box has a smaller computed signed distance. (It is the
+    /// signed distance of the corner that lies furthest behind the plane; rounding is monotone,
+    /// so each term of the dot product, and their sum, is smallest there.) NaN when the box
+    /// is not finite on an axis the plane is parallel to, so a caller comparing with `>=` then
+    /// skips nothing.
+    #[inline]
+    pub fn lowest_signed_distance(&self, lo: V, hi: V) -> f64 {
+        let mut corner = [0.0; 3];
+        for (a, c) in corner.iter_mut().enumerate().take(V::DIM) {
+            *c = if self.normal.get(a) >= 0.0 {
+                lo.get(a)
+            } else {
+                hi.get(a)
+            };
+        }
+        self.signed_distance(V::from_slice(&corner))
+    }
+
     /// The lecture's detection: `(x - p) . n < r && n . v < 0`.
     #[inline]
     pub fn is_colliding(&self, x: V, v: V, radius: f64) -> bool {
@@ -106,6 +125,44 @@ pub(crate) fn check_restitution(k: f64) -> Result<(), EngineError> {
 mod tests {
     use super::*;
     use glam::{DVec2, DVec3};
+    use proptest::prelude::*;
+
+    proptest! {
+        /// No point of a box has a computed signed distance below the box's bound, for any
+        /// plane: a pass that skips a box by its bound skips no contact.
+        #[test]
+        fn lowest_signed_distance_bounds_every_point_of_the_box(
+            point in prop::array::uniform3(-1e3f64..1e3),
+            normal in prop::array::uniform3(-1.0f64..1.0),
+            corners in prop::array::uniform6(-1e3f64..1e3),
+            fractions in prop::collection::vec(prop::array::uniform3(0.0f64..=1.0), 1..16),
+        ) {
+            prop_assume!(normal.iter().any(|&c| c != 0.0));
+            let plane = Plane::new(DVec3::from(point), DVec3::from(normal), 0.5).unwrap();
+            let a = DVec3::new(corners[0], corners[1], corners[2]);
+            let b = DVec3::new(corners[3], corners[4], corners[5]);
+            let (lo, hi) = (a.min(b), a.max(b));
+            let bound = plane.lowest_signed_distance(lo, hi);
+            for f in fractions {
+                let x = (lo + (hi - lo) * DVec3::from(f)).clamp(lo, hi);
+                prop_assert!(bound <= plane.signed_distance(x));
+            }
+            // the corners themselves, where the bound is reached
+            for x in [lo, hi, DVec3::new(lo.x, hi.y, lo.z), DVec3::new(hi.x, lo.y, hi.z)] {
+                prop_assert!(bound <= plane.signed_distance(x));
+            }
+        }
+    }
+
+    #[test]
+    fn lowest_signed_distance_of_a_box_is_its_deepest_corner() {
+        let wall = Plane::new(DVec2::new(-10.0, 0.0), DVec2::new(1.0, 0.0), 1.0).unwrap();
+        let (lo, hi) = (DVec2::new(-9.0, -100.0), DVec2::new(5.0, 100.0));
+        assert_eq!(wall.lowest_signed_distance(lo, hi), 1.0);
+        // infinite on an axis the plane is parallel to: no bound (NaN), so nothing is skipped
+        let unbounded = DVec2::new(-9.0, f64::NEG_INFINITY);
+        assert!(wall.lowest_signed_distance(unbounded, hi).is_nan());
+    }
 
     fn floor(k: f64) -> Plane<DVec2> {
         Plane::new(DVec2::new(0.0, -50.0), DVec2::new(0.0, 3.0), k).unwrap()

@@ -20,6 +20,32 @@ use std::time::Instant;
 /// Particles per parallel integration task (fixed, like [`crate::broadphase`]'s chunks).
 const INTEGRATE_CHUNK: usize = 4096;
 
+/// Particles per box in the plane pass: neighbours in storage order lie near each other
+/// (see [`REORDER_INTERVAL`]), so most boxes of this many are far from every wall and their
+/// particles need no test of their own. (In the bench's 10^6 gas the pass took 7.4-8.7 ms a
+/// step testing every particle against its four walls.)
+const PLANE_BLOCK: usize = 32;
+
+/// Whether no particle at `positions`, with plane reach `reaches` (each the
+/// [`solver::plane_reach`] of one), can be a candidate of any plane: their bounding box lies
+/// at least the largest reach in front of each. Exact, never a guess (see
+/// [`crate::Plane::lowest_signed_distance`]).
+fn far_from_every_plane<V: Vector>(
+    planes: &[crate::Plane<V>],
+    positions: &[V],
+    reaches: impl Iterator<Item = f64>,
+) -> bool {
+    let (mut lo, mut hi) = (positions[0], positions[0]);
+    for &x in &positions[1..] {
+        lo = lo.min_components(x);
+        hi = hi.max_components(x);
+    }
+    let far = reaches.fold(f64::NEG_INFINITY, f64::max);
+    planes
+        .iter()
+        .all(|plane| plane.lowest_signed_distance(lo, hi) >= far)
+}
+
 impl<V: Vector> Phases for World<V> {
     fn sort_along_space(&mut self) {
         self.by_id.take();
@@ -258,17 +284,27 @@ impl<V: Vector> World<V> {
         let radius = &self.store.radius;
         let in_move = (self.config.solver_settings()).planes_in_move(planes, self.config.gravity);
         let sleepers = &self.sleepers;
+        let plane_reach = |i: usize| solver::plane_reach(reach[i], radius[i], in_move);
         let work = |(c, out): (usize, &mut Vec<PlaneContact>)| {
             out.clear();
-            for i in c * INTEGRATE_CHUNK..((c + 1) * INTEGRATE_CHUNK).min(n) {
-                if sleepers.sleeps(i) {
+            let chunk = c * INTEGRATE_CHUNK..((c + 1) * INTEGRATE_CHUNK).min(n);
+            for start in chunk.clone().step_by(PLANE_BLOCK) {
+                let block = start..(start + PLANE_BLOCK).min(chunk.end);
+                if far_from_every_plane(
+                    planes,
+                    &position[block.clone()],
+                    block.clone().map(plane_reach),
+                ) {
                     continue;
                 }
-                for (p, plane) in planes.iter().enumerate() {
-                    if plane.signed_distance(position[i])
-                        < solver::plane_reach(reach[i], radius[i], in_move)
-                    {
-                        out.push((i as u32, p as u32));
+                for i in block {
+                    if sleepers.sleeps(i) {
+                        continue;
+                    }
+                    for (p, plane) in planes.iter().enumerate() {
+                        if plane.signed_distance(position[i]) < plane_reach(i) {
+                            out.push((i as u32, p as u32));
+                        }
                     }
                 }
             }
