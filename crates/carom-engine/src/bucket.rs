@@ -1,6 +1,8 @@
 //! Cell lists by counting sort: the one way the engine groups particles by a cell number (the
 //! grid's cells, the hash's buckets, the storage order along space).
 
+use rayon::prelude::*;
+
 /// Groups `items` by their key: afterwards `order[starts[c] as usize..starts[c + 1] as usize]`
 /// lists the items whose key is `c`, in the order `items` gave them (a stable sort, so ties
 /// keep that order). `keys[i]` is item `i`'s key, below `buckets`; `items` yields every index
@@ -32,9 +34,130 @@ pub(crate) fn counting_sort(
     starts[0] = 0;
 }
 
+/// [`counting_sort`] of the items `0..keys.len()` on the thread pool, into the same `starts`
+/// and `order`. The buckets are cut into `parts` runs of equal length; the task of each run
+/// reads every key and counts, then places, the items whose key falls in its run, in item
+/// order, so the result does not depend on `parts` or the threads. Each key is read twice per
+/// run: worth it for few runs (one per thread) over many items. `totals` is scratch.
+pub(crate) fn counting_sort_parallel(
+    keys: &[u32],
+    buckets: usize,
+    parts: usize,
+    starts: &mut Vec<u32>,
+    order: &mut Vec<u32>,
+    totals: &mut Vec<u32>,
+) {
+    let width = buckets.div_ceil(parts.max(1)).max(1);
+    if buckets <= width {
+        return counting_sort(keys, buckets, 0..keys.len() as u32, starts, order);
+    }
+    starts.clear();
+    starts.resize(buckets + 1, 0);
+    totals.clear();
+    totals.resize(buckets.div_ceil(width), 0);
+    // each run's counts, summed up within the run: starts[c + 1] ends up the end of cell c
+    starts[1..]
+        .par_chunks_mut(width)
+        .zip(totals.par_iter_mut())
+        .enumerate()
+        .for_each(|(run, (ends, total))| {
+            let first = run * width;
+            for &k in keys {
+                if let Some(count) = (k as usize)
+                    .checked_sub(first)
+                    .and_then(|c| ends.get_mut(c))
+                {
+                    *count += 1;
+                }
+            }
+            let mut sum = 0;
+            for end in ends.iter_mut() {
+                sum += *end;
+                *end = sum;
+            }
+            *total = sum;
+        });
+    let mut before = 0;
+    for total in totals.iter_mut() {
+        (*total, before) = (before, before + *total);
+    }
+    starts[1..]
+        .par_chunks_mut(width)
+        .zip(totals.par_iter())
+        .for_each(|(ends, &before)| ends.iter_mut().for_each(|end| *end += before));
+    order.resize(keys.len(), 0);
+    place_runs(keys, width, 0, &mut starts[..buckets], order, 0);
+    // (the cursors now hold each cell's end, which is the next cell's start)
+    starts.copy_within(0..buckets, 1);
+    starts[0] = 0;
+}
+
+/// Places the items of the runs from `first_run` on whose cells' starts (`cursors`, advanced
+/// as items go in) lie in `order`, which begins at item position `base`: the runs split in
+/// halves, each half on its own task with its own part of `order`.
+fn place_runs(
+    keys: &[u32],
+    width: usize,
+    first_run: usize,
+    cursors: &mut [u32],
+    order: &mut [u32],
+    base: u32,
+) {
+    let runs = cursors.len().div_ceil(width);
+    if runs <= 1 {
+        let first = first_run * width;
+        for (i, &k) in keys.iter().enumerate() {
+            if let Some(cursor) = (k as usize)
+                .checked_sub(first)
+                .and_then(|c| cursors.get_mut(c))
+            {
+                order[(*cursor - base) as usize] = i as u32;
+                *cursor += 1;
+            }
+        }
+        return;
+    }
+    let half = runs / 2;
+    let (left, right) = cursors.split_at_mut(half * width);
+    let split = right[0] - base;
+    let (left_order, right_order) = order.split_at_mut(split as usize);
+    rayon::join(
+        || place_runs(keys, width, first_run, left, left_order, base),
+        || {
+            place_runs(
+                keys,
+                width,
+                first_run + half,
+                right,
+                right_order,
+                base + split,
+            )
+        },
+    );
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// On the thread pool or not, in any number of runs: the same cells, in the same order.
+        #[test]
+        fn parallel_counting_sort_equals_the_serial_one(
+            keys in prop::collection::vec(0u32..40, 0..300),
+            extra_buckets in 0usize..20,
+            parts in 1usize..9,
+        ) {
+            let buckets = 40 + extra_buckets;
+            let (mut starts, mut order) = (Vec::new(), Vec::new());
+            counting_sort(&keys, buckets, 0..keys.len() as u32, &mut starts, &mut order);
+            let (mut p_starts, mut p_order, mut totals) = (vec![7], vec![9; 3], Vec::new());
+            counting_sort_parallel(&keys, buckets, parts, &mut p_starts, &mut p_order, &mut totals);
+            prop_assert_eq!(p_starts, starts);
+            prop_assert_eq!(p_order, order);
+        }
+    }
 
     #[test]
     fn groups_by_key_keeping_the_given_order() {
