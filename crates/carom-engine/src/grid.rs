@@ -282,6 +282,16 @@ pub(crate) fn cell_limit(n: usize) -> f64 {
     ((4 * n).max(64) as f64).min(MAX_CELLS as f64)
 }
 
+/// The largest of `values` (0 when there are none or all are below it; NaN is passed over),
+/// on the thread pool for many: a maximum is the same in any order.
+pub(crate) fn largest(values: &[f64]) -> f64 {
+    if values.len() >= PARALLEL_MIN {
+        values.par_iter().copied().reduce(|| 0.0, f64::max)
+    } else {
+        values.iter().copied().fold(0.0, f64::max)
+    }
+}
+
 /// The smallest box holding every position (a zero box when there are none).
 pub(crate) fn bounding_box<V: Vector>(positions: &[V]) -> Aabb<V> {
     let (min, max) = positions
@@ -359,7 +369,7 @@ impl<V: Vector> Grid<V> {
         pairs: &mut Vec<Pair>,
     ) {
         self.escaped = false;
-        let max_radius = radii.iter().copied().fold(0.0, f64::max);
+        let max_radius = largest(radii);
         self.plan_layout(positions, max_radius);
         self.build_buckets(positions);
         let layout = self.layout;
@@ -425,7 +435,7 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
             }
         }
         self.escaped = false;
-        let max_radius = radii.iter().copied().fold(0.0, f64::max);
+        let max_radius = largest(radii);
         self.plan_layout(positions, max_radius);
         self.build_buckets(positions);
         let layout = self.layout;

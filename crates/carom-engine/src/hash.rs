@@ -89,7 +89,7 @@ const MAX_VISITED: usize = 64;
 impl<V: Vector> BroadPhase<V> for SpatialHash {
     fn find_pairs(&mut self, positions: &[V], radii: &[f64], pairs: &mut Vec<Pair>) {
         let n = positions.len();
-        let max_radius = radii.iter().copied().fold(0.0, f64::max);
+        let max_radius = crate::grid::largest(radii);
         let cell = (2.0 * max_radius).max(f64::MIN_POSITIVE);
         self.layout = HashLayout {
             inverse_cell: 1.0 / cell,
