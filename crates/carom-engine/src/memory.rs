@@ -131,10 +131,10 @@ impl Memory {
         into.extend(kept);
     }
 
-    /// Renames slots after a spatial sort: `old_ids[slot]` is the id that was in `slot`,
-    /// `new_slots[id]` the slot it is in now.
-    pub fn remap(&mut self, old_ids: &[u32], new_slots: &[u32]) {
-        let moved = |s: u32| new_slots[old_ids[s as usize] as usize];
+    /// Renames slots after a spatial sort: `new_slot_of[slot]` is where what was in `slot`
+    /// is now.
+    pub fn remap(&mut self, new_slot_of: &[u32]) {
+        let moved = |s: u32| new_slot_of[s as usize];
         for entry in &mut self.pairs {
             let (a, b) = (moved(entry.0), moved(entry.1));
             (entry.0, entry.1) = (a.min(b), a.max(b));
@@ -246,11 +246,8 @@ mod tests {
             planes: vec![(2, 0, 3.0)],
             ..Default::default()
         };
-        // slot 0 held id 5, slot 1 id 6, slot 2 id 7; now id 5 is in slot 2, 6 in 0, 7 in 1
-        let old_ids = [5, 6, 7];
-        let mut new_slots = vec![0; 8];
-        (new_slots[5], new_slots[6], new_slots[7]) = (2, 0, 1);
-        m.remap(&old_ids, &new_slots);
+        // what was in slot 0 is now in slot 2, slot 1's in 0, slot 2's in 1
+        m.remap(&[2, 0, 1]);
         assert_eq!(m.pairs, vec![(0, 1, 2.0), (0, 2, 1.0)]);
         assert_eq!(m.planes, vec![(1, 0, 3.0)]);
     }

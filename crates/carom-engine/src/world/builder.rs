@@ -283,7 +283,6 @@ impl<V: Vector> WorldBuilder<V> {
             all_asleep: false,
             asleep_overlap: 0.0,
             phase_times: PhaseTimes::default(),
-            unsorted_ids: Vec::new(),
             blocks: Blocks::default(),
             stamps: Vec::new(),
             stamp_groups: Vec::new(),

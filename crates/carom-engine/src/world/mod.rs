@@ -114,8 +114,6 @@ pub struct World<V: Vector> {
     asleep_overlap: f64,
     /// Where the steps' time went (see [`PhaseTimes`]).
     phase_times: PhaseTimes,
-    /// Ids by slot before a sort (scratch).
-    unsorted_ids: Vec<u32>,
     blocks: Blocks,
     /// The work lists' stamps, one per slot, and their sweep clock (see [`crate::schedule`]).
     stamps: Vec<u32>,

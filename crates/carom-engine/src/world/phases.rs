@@ -53,8 +53,6 @@ impl<V: Vector> Phases for World<V> {
         if self.steps % REORDER_INTERVAL != 0 || self.store.is_empty() || self.sleeps_whole() {
             return;
         }
-        self.unsorted_ids.clear();
-        self.unsorted_ids.extend_from_slice(&self.ids);
         self.sorter.sort(
             &mut self.store,
             &mut self.ids,
@@ -62,7 +60,7 @@ impl<V: Vector> Phases for World<V> {
             &mut self.slots,
             self.config.domain,
         );
-        self.memory.remap(&self.unsorted_ids, &self.slots);
+        self.memory.remap(self.sorter.new_slot_of());
     }
 
     fn find_contacts(&mut self) {

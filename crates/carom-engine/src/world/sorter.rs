@@ -19,6 +19,8 @@ pub(crate) fn sort_layout<V: Vector>(bounds: &Aabb<V>, max_radius: f64, n: usize
 /// The spatial sort's scratch space, kept between sorts.
 #[derive(Debug, Default)]
 pub(super) struct Sorter {
+    /// Each slot's cell while planning; after [`Sorter::sort`], where the slot's particle
+    /// went (see [`Sorter::new_slot_of`]).
     keys: Vec<u32>,
     starts: Vec<u32>,
     pub(super) order: Vec<u32>,
@@ -124,5 +126,14 @@ impl Sorter {
         for (slot, &id) in ids.iter().enumerate() {
             slots[id as usize] = slot as u32;
         }
+        // (the keys are done with: they become the map from old slots to new)
+        for (new, &old) in self.order.iter().enumerate() {
+            self.keys[old as usize] = new as u32;
+        }
+    }
+
+    /// After [`Sorter::sort`]: for each slot before the sort, the slot its particle is in now.
+    pub(super) fn new_slot_of(&self) -> &[u32] {
+        &self.keys
     }
 }
