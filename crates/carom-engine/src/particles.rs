@@ -102,7 +102,7 @@ impl<V: Vector> Particles<V> {
 
     /// The largest radius, 0 when empty.
     pub fn max_radius(&self) -> f64 {
-        self.radius.iter().copied().fold(0.0, f64::max)
+        crate::grid::largest(&self.radius)
     }
 
     /// Sets particle `id`'s velocity (for interactive tools). Must be finite.

@@ -121,6 +121,54 @@ pub(crate) fn check_restitution(k: f64) -> Result<(), EngineError> {
     }
 }
 
+/// Particles per box in [`plane_candidates`]: neighbours in storage order lie near each other
+/// (the world sorts its particles along space), so most boxes of this many are far from every
+/// wall and their particles need no test of their own. (In the bench's 10^6 gas, testing every
+/// particle against its four walls took 7.4-8.7 ms a step.)
+const CANDIDATE_BOX: usize = 32;
+
+/// Appends to `out`, in order, `(first + k, p)` for each particle `k` of `positions` within its
+/// `reach(first + k)` of plane `p` (`signed_distance < reach`), but for those `skip` names.
+/// Particles are taken [`CANDIDATE_BOX`] at a time, and a box whose bounding box lies at least
+/// its largest reach in front of every plane is passed over whole: exact, never a guess (see
+/// [`Plane::lowest_signed_distance`]).
+pub(crate) fn plane_candidates<V: Vector>(
+    planes: &[Plane<V>],
+    positions: &[V],
+    first: usize,
+    reach: impl Fn(usize) -> f64,
+    skip: impl Fn(usize) -> bool,
+    out: &mut Vec<(u32, u32)>,
+) {
+    for (b, chunk) in positions.chunks(CANDIDATE_BOX).enumerate() {
+        let start = first + b * CANDIDATE_BOX;
+        let (mut lo, mut hi) = (chunk[0], chunk[0]);
+        for &x in &chunk[1..] {
+            lo = lo.min_components(x);
+            hi = hi.max_components(x);
+        }
+        let far = (start..start + chunk.len())
+            .map(&reach)
+            .fold(f64::NEG_INFINITY, f64::max);
+        if planes
+            .iter()
+            .all(|plane| plane.lowest_signed_distance(lo, hi) >= far)
+        {
+            continue;
+        }
+        for (i, &x) in (start..).zip(chunk) {
+            if skip(i) {
+                continue;
+            }
+            for (p, plane) in planes.iter().enumerate() {
+                if plane.signed_distance(x) < reach(i) {
+                    out.push((i as u32, p as u32));
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,6 +8,7 @@ use crate::memory::Memory;
 use crate::observe;
 use crate::particles::Particles;
 use crate::periodic;
+use crate::plane::plane_candidates;
 use crate::schedule::{Alone, PlaneContact};
 use crate::sleep::{self, Sleepers, Support};
 use crate::solver::{self, Contacts, Moving, PlaneRow, Row, VelocitySolve, WorkList};
@@ -19,32 +20,6 @@ use std::time::Instant;
 
 /// Particles per parallel integration task (fixed, like [`crate::broadphase`]'s chunks).
 const INTEGRATE_CHUNK: usize = 4096;
-
-/// Particles per box in the plane pass: neighbours in storage order lie near each other
-/// (see [`REORDER_INTERVAL`]), so most boxes of this many are far from every wall and their
-/// particles need no test of their own. (In the bench's 10^6 gas the pass took 7.4-8.7 ms a
-/// step testing every particle against its four walls.)
-const PLANE_BLOCK: usize = 32;
-
-/// Whether no particle at `positions`, with plane reach `reaches` (each the
-/// [`solver::plane_reach`] of one), can be a candidate of any plane: their bounding box lies
-/// at least the largest reach in front of each. Exact, never a guess (see
-/// [`crate::Plane::lowest_signed_distance`]).
-fn far_from_every_plane<V: Vector>(
-    planes: &[crate::Plane<V>],
-    positions: &[V],
-    reaches: impl Iterator<Item = f64>,
-) -> bool {
-    let (mut lo, mut hi) = (positions[0], positions[0]);
-    for &x in &positions[1..] {
-        lo = lo.min_components(x);
-        hi = hi.max_components(x);
-    }
-    let far = reaches.fold(f64::NEG_INFINITY, f64::max);
-    planes
-        .iter()
-        .all(|plane| plane.lowest_signed_distance(lo, hi) >= far)
-}
 
 impl<V: Vector> Phases for World<V> {
     fn sort_along_space(&mut self) {
@@ -286,26 +261,15 @@ impl<V: Vector> World<V> {
         let work = |(c, out): (usize, &mut Vec<PlaneContact>)| {
             out.clear();
             let chunk = c * INTEGRATE_CHUNK..((c + 1) * INTEGRATE_CHUNK).min(n);
-            for start in chunk.clone().step_by(PLANE_BLOCK) {
-                let block = start..(start + PLANE_BLOCK).min(chunk.end);
-                if far_from_every_plane(
-                    planes,
-                    &position[block.clone()],
-                    block.clone().map(plane_reach),
-                ) {
-                    continue;
-                }
-                for i in block {
-                    if sleepers.sleeps(i) {
-                        continue;
-                    }
-                    for (p, plane) in planes.iter().enumerate() {
-                        if plane.signed_distance(position[i]) < plane_reach(i) {
-                            out.push((i as u32, p as u32));
-                        }
-                    }
-                }
-            }
+            let skip = |i: usize| sleepers.sleeps(i);
+            plane_candidates(
+                planes,
+                &position[chunk.clone()],
+                chunk.start,
+                plane_reach,
+                skip,
+                out,
+            );
             keep_headroom(out);
         };
         if parallel {

@@ -5,7 +5,8 @@ use crate::cluster::lender::{borrower, lender};
 use crate::cluster::traffic::{Link, TrafficKind};
 use crate::cluster::transport::Transport;
 use crate::cluster::wire::{Reader, Writer};
-use crate::grid::{bounding_box, widened_reach};
+use crate::grid::{bounding_box, largest, widened_reach};
+use crate::plane::plane_candidates;
 use crate::sleep;
 use crate::solver::{self, PlaneRow, Row};
 use crate::vector::Vector;
@@ -57,7 +58,7 @@ impl<V: Vector> Subdomain<V> {
             self.reach
                 .push(solver::reach(r, v.length_squared().sqrt() + fall, dt));
         }
-        let max_reach = self.reach.iter().copied().fold(0.0, f64::max);
+        let max_reach = largest(&self.reach);
         // A particle j of another rank can reach an own one only from within the own bounding
         // box grown by this rank's largest reach plus j's rank's: each rank sends its box and
         // largest reach, and the others grow it by their own (widened against rounding).
@@ -144,25 +145,27 @@ impl<V: Vector> Subdomain<V> {
         self.plane_rows.clear();
         let in_move =
             (self.config.solver_settings()).planes_in_move(&self.planes, self.config.gravity);
-        for s in 0..own {
-            if self.sleepers.sleeps(s) {
-                continue;
-            }
-            let x = self.window.position[s];
-            for (p, plane) in self.planes.iter().enumerate() {
-                let radius = self.window.radius[s];
-                if plane.signed_distance(x) < solver::plane_reach(self.reach[s], radius, in_move) {
-                    self.plane_contacts.push((s as u32, p as u32));
-                    self.plane_rows.push(PlaneRow::new(
-                        plane,
-                        p as u32,
-                        x,
-                        self.window.radius[s],
-                        dt,
-                    ));
-                }
-            }
-        }
+        let (window, reach, sleepers) = (&self.window, &self.reach, &self.sleepers);
+        plane_candidates(
+            &self.planes,
+            &window.position[..own],
+            0,
+            |s| solver::plane_reach(reach[s], window.radius[s], in_move),
+            |s| sleepers.sleeps(s),
+            &mut self.plane_contacts,
+        );
+        let planes = &self.planes;
+        self.plane_rows
+            .extend(self.plane_contacts.iter().map(|&(s, p)| {
+                let s = s as usize;
+                PlaneRow::new(
+                    &planes[p as usize],
+                    p,
+                    window.position[s],
+                    window.radius[s],
+                    dt,
+                )
+            }));
         let parallel = self.partition.slots() >= PARALLEL_MIN;
         let candidates = &self.candidates;
         let (search, sleepers) = (&self.search, &self.sleepers);
