@@ -23,19 +23,50 @@ use std::ops::Range;
 pub(crate) const GROUP: usize = 64;
 
 /// The work lists' stamps for a run of slots (see [`crate::schedule`]): per slot, the number
-/// of the last sweep that changed it, and per group of [`GROUP`] slots the largest of its
-/// slots' stamps, so that a sweep finds the changed slots without reading every stamp. Empty
-/// when there are no work lists.
+/// of the last sweep that changed it, and per group of [`GROUP`] slots which of them the last
+/// two sweeps changed (see [`GroupStamps`]), so that a sweep finds the changed slots without
+/// reading every stamp. Empty when there are no work lists.
 #[derive(Debug, Default)]
 pub(crate) struct Stamps<'a> {
     slot: &'a mut [u32],
-    group: &'a mut [u32],
+    group: &'a mut [GroupStamps],
+}
+
+/// The stamps of one group of [`GROUP`] slots, one bit per slot: a sweep after a pass's first
+/// wants the slots stamped by the sweep before it or by itself, which these bits give without
+/// reading the slots' stamps (scattered over memory, those reads were most of the cost of
+/// finding them: see [`Frontier::walk`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct GroupStamps {
+    /// The largest stamp of the group's slots.
+    latest: u32,
+    /// The slots stamped `latest`.
+    newest: u64,
+    /// The slots stamped `latest - 1` (some may have been stamped `latest` since).
+    before: u64,
+}
+
+impl GroupStamps {
+    /// The group's slots stamped at least `since`, as bits, or `None` when the bits cannot
+    /// tell (`since` more than one sweep before the latest: the slots' stamps must).
+    #[inline]
+    fn since(&self, since: u32) -> Option<u64> {
+        if self.latest < since {
+            Some(0)
+        } else if self.latest == since {
+            Some(self.newest)
+        } else if self.latest - 1 == since {
+            Some(self.newest | self.before)
+        } else {
+            None
+        }
+    }
 }
 
 impl<'a> Stamps<'a> {
     /// The stamps `slot` with their groups `group` (`slot.len()` divided by [`GROUP`],
     /// rounded up; both zero or filled by this type's methods alone).
-    pub fn new(slot: &'a mut [u32], group: &'a mut [u32]) -> Self {
+    pub fn new(slot: &'a mut [u32], group: &'a mut [GroupStamps]) -> Self {
         debug_assert_eq!(group.len(), slot.len().div_ceil(GROUP));
         Self { slot, group }
     }
@@ -57,17 +88,27 @@ impl<'a> Stamps<'a> {
         self.slot[i]
     }
 
-    /// Stamps slot `i` with `now`, the newest sweep's number.
+    /// Stamps slot `i` with `now`, the newest sweep's number (no stamp is ever larger).
     #[inline]
     pub fn set(&mut self, i: usize, now: u32) {
         self.slot[i] = now;
-        self.group[i / GROUP] = now;
+        let group = &mut self.group[i / GROUP];
+        if group.latest != now {
+            group.before = if group.latest + 1 == now {
+                group.newest
+            } else {
+                0
+            };
+            group.newest = 0;
+            group.latest = now;
+        }
+        group.newest |= 1 << (i % GROUP);
     }
 
     /// Every stamp back to 0.
     pub fn clear(&mut self) {
         self.slot.fill(0);
-        self.group.fill(0);
+        self.group.fill(GroupStamps::default());
     }
 
     /// The same stamps, borrowed anew.
@@ -92,15 +133,27 @@ impl<'a> Stamps<'a> {
         (Stamps::new(a, ga), Stamps::new(b, gb))
     }
 
-    /// The slots stamped at least `since`, ascending.
-    fn since(&self, since: u32) -> impl Iterator<Item = usize> + '_ {
-        let groups = self.group.iter().enumerate();
-        groups
-            .filter(move |&(_, &g)| g >= since)
-            .flat_map(move |(g, _)| {
-                let slots = g * GROUP..((g + 1) * GROUP).min(self.slot.len());
-                slots.filter(move |&l| self.slot[l] >= since)
-            })
+    /// Appends to `out` the slots below `end` stamped at least `since`, ascending.
+    fn collect_since(&self, since: u32, end: usize, out: &mut Vec<u32>) {
+        let end = end.min(self.slot.len());
+        for (g, group) in self.group[..end.div_ceil(GROUP)].iter().enumerate() {
+            let first = g * GROUP;
+            let mut bits = match group.since(since) {
+                Some(bits) => bits,
+                None => {
+                    let slots = &self.slot[first..(first + GROUP).min(end)];
+                    let stamped = slots.iter().enumerate().filter(|(_, &s)| s >= since);
+                    stamped.fold(0, |bits, (l, _)| bits | 1 << l)
+                }
+            };
+            if end - first < GROUP {
+                bits &= (1 << (end - first)) - 1;
+            }
+            while bits != 0 {
+                out.push((first + bits.trailing_zeros() as usize) as u32);
+                bits &= bits - 1;
+            }
+        }
     }
 }
 
@@ -136,12 +189,22 @@ struct BlockIndex {
     start: Vec<u32>,
     /// Contact (pair) indices; every contact twice, once for each particle.
     list: Vec<u32>,
+    /// One past the last span slot with a contact: the slots from here on (most of the next
+    /// block's) have none in this block, so the walk does not look at their stamps.
+    reached: usize,
+}
+
+/// A walk's scratch, per worker thread, kept between walks (no allocation after warm-up).
+#[derive(Default)]
+struct Scratch {
+    /// The contacts still to visit, one bit per contact of the block.
+    pending: Vec<u64>,
+    /// The slots stamped when the walk starts.
+    seeds: Vec<u32>,
 }
 
 thread_local! {
-    /// A walk's pending contacts, one bit per contact of its block, per worker thread, kept
-    /// between walks (no allocation after warm-up).
-    static PENDING: RefCell<Vec<u64>> = const { RefCell::new(Vec::new()) };
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
 impl Frontier {
@@ -202,6 +265,10 @@ impl Frontier {
             if span > 0 {
                 start[0] = 0;
             }
+            index.reached = (0..span)
+                .rev()
+                .find(|&l| start[l] < start[l + 1])
+                .map_or(0, |l| l + 1);
         };
         if parallel {
             self.blocks.par_iter_mut().enumerate().for_each(build);
@@ -237,50 +304,59 @@ impl Frontier {
             bits[bit / 64] |= 1 << (bit % 64);
         };
         let mut budget = contacts.len().div_ceil(SCAN_ABOVE) * 2;
-        PENDING.with_borrow_mut(|bits| {
-            let words = contacts.len().div_ceil(64);
-            bits.clear();
-            bits.resize(words, 0);
-            for l in stamps.since(since) {
-                let more = of(l);
-                if more.len() > budget {
+        SCRATCH.with_borrow_mut(
+            |Scratch {
+                 pending: bits,
+                 seeds,
+             }| {
+                let words = contacts.len().div_ceil(64);
+                bits.clear();
+                bits.resize(words, 0);
+                // (first every seed, then their lists' lengths, then the lists: the lookups of one
+                // stage do not wait on each other, which scattered seeds made the walk's main cost)
+                seeds.clear();
+                stamps.collect_since(since, index.reached, seeds);
+                let seeded: usize = seeds.iter().map(|&l| of(l as usize).len()).sum();
+                if seeded > budget {
                     return Walk::ScanPast(None);
                 }
-                budget -= more.len();
-                for &k in more {
-                    mark(bits, k);
+                budget -= seeded;
+                for &l in seeds.iter() {
+                    for &k in of(l as usize) {
+                        mark(bits, k);
+                    }
                 }
-            }
-            let word_order: &mut dyn Iterator<Item = usize> = if reverse {
-                &mut (0..words).rev()
-            } else {
-                &mut (0..words)
-            };
-            for w in word_order {
-                while bits[w] != 0 {
-                    let bit = if reverse {
-                        63 - bits[w].leading_zeros() as usize
-                    } else {
-                        bits[w].trailing_zeros() as usize
-                    };
-                    bits[w] &= !(1 << bit);
-                    let k = first + w * 64 + bit;
-                    if let Some((i, j)) = visit(k, stamps) {
-                        let more = of(i).len() + of(j).len();
-                        if more > budget {
-                            return Walk::ScanPast(Some(k));
-                        }
-                        budget -= more;
-                        for &m in of(i).iter().chain(of(j)) {
-                            if (m as usize > k) != reverse && m as usize != k {
-                                mark(bits, m);
+                let word_order: &mut dyn Iterator<Item = usize> = if reverse {
+                    &mut (0..words).rev()
+                } else {
+                    &mut (0..words)
+                };
+                for w in word_order {
+                    while bits[w] != 0 {
+                        let bit = if reverse {
+                            63 - bits[w].leading_zeros() as usize
+                        } else {
+                            bits[w].trailing_zeros() as usize
+                        };
+                        bits[w] &= !(1 << bit);
+                        let k = first + w * 64 + bit;
+                        if let Some((i, j)) = visit(k, stamps) {
+                            let more = of(i).len() + of(j).len();
+                            if more > budget {
+                                return Walk::ScanPast(Some(k));
+                            }
+                            budget -= more;
+                            for &m in of(i).iter().chain(of(j)) {
+                                if (m as usize > k) != reverse && m as usize != k {
+                                    mark(bits, m);
+                                }
                             }
                         }
                     }
                 }
-            }
-            Walk::Done
-        })
+                Walk::Done
+            },
+        )
     }
 }
 
@@ -288,17 +364,68 @@ impl Frontier {
 mod tests {
     use super::*;
 
+    /// Stamps and their groups with the stamps `of` each slot, set in the order of the stamps.
+    fn stamped(of: &[u32]) -> (Vec<u32>, Vec<GroupStamps>) {
+        let (mut slot, mut group) = (
+            vec![0; of.len()],
+            vec![GroupStamps::default(); of.len().div_ceil(GROUP)],
+        );
+        let mut stamps = Stamps::new(&mut slot, &mut group);
+        let mut order: Vec<usize> = (0..of.len()).filter(|&i| of[i] > 0).collect();
+        order.sort_by_key(|&i| of[i]);
+        for i in order {
+            stamps.set(i, of[i]);
+        }
+        (slot, group)
+    }
+
     #[test]
     fn groups_find_the_stamped_slots_and_split_with_them() {
-        let (mut slot, mut group) = (vec![0; 200], vec![0; 4]);
+        let (mut slot, mut group) = (vec![0; 200], vec![GroupStamps::default(); 4]);
         let mut stamps = Stamps::new(&mut slot, &mut group);
         for (i, now) in [(3, 5), (70, 6), (199, 7), (130, 2)] {
             stamps.set(i, now);
         }
-        assert_eq!(stamps.since(5).collect::<Vec<_>>(), vec![3, 70, 199]);
+        let since = |stamps: &Stamps, since, end| {
+            let mut out = Vec::new();
+            stamps.collect_since(since, end, &mut out);
+            out
+        };
+        assert_eq!(since(&stamps, 5, 200), vec![3, 70, 199]);
+        assert_eq!(since(&stamps, 5, 199), vec![3, 70]);
+        // (more than a sweep back: from the slots' stamps)
+        assert_eq!(since(&stamps, 2, 200), vec![3, 70, 130, 199]);
+        assert_eq!(since(&stamps, 3, 200), vec![3, 70, 199]);
         let (low, high) = stamps.split_at(128);
-        assert_eq!(low.since(6).collect::<Vec<_>>(), vec![70]);
-        assert_eq!(high.since(1).collect::<Vec<_>>(), vec![2, 71]);
+        assert_eq!(since(&low, 6, 1000), vec![70]);
+        assert_eq!(since(&high, 1, 72), vec![2, 71]);
+        assert_eq!(since(&high, 1, 71), vec![2]);
+    }
+
+    proptest::proptest! {
+        /// The groups' bits find what reading every slot's stamp finds, sweep after sweep.
+        #[test]
+        fn group_bits_find_what_the_slots_say(
+            sweeps in proptest::collection::vec(proptest::collection::vec(0usize..300, 0..20), 1..12),
+            end in 0usize..320,
+        ) {
+            let (mut slot, mut group) = (vec![0; 300], vec![GroupStamps::default(); 300usize.div_ceil(GROUP)]);
+            let mut stamps = Stamps::new(&mut slot, &mut group);
+            for (sweep, changed) in sweeps.iter().enumerate() {
+                let now = sweep as u32 + 1;
+                for &i in changed {
+                    stamps.set(i, now);
+                }
+                for since in 1..=now {
+                    let mut found = Vec::new();
+                    stamps.collect_since(since, end, &mut found);
+                    let read: Vec<u32> = (0..end.min(300) as u32)
+                        .filter(|&l| stamps.get(l as usize) >= since)
+                        .collect();
+                    proptest::prop_assert_eq!(found, read);
+                }
+            }
+        }
     }
 
     #[test]
@@ -310,7 +437,13 @@ mod tests {
         let b = &f.blocks[0];
         assert_eq!(b.start, vec![0, 2, 4, 6, 8]);
         assert_eq!(b.list, vec![0, 1, 0, 2, 2, 3, 1, 3]);
+        assert_eq!(b.reached, 4);
         assert!(f.ready());
+        // slots 2 and 3 touch nothing: the walk need not look at their stamps
+        f.index(&[(0, 1)], &[0, 1], 4, 4, false);
+        assert_eq!(f.blocks[0].reached, 2);
+        f.index(&[], &[0, 0], 4, 4, false);
+        assert_eq!(f.blocks[0].reached, 0);
     }
 
     #[test]
@@ -322,7 +455,7 @@ mod tests {
         for reverse in [false, true] {
             // seeded at slot 2 (contacts 1 and 2); every visit changes its particles
             let mut seen = Vec::new();
-            let (mut slot, mut group) = ([0, 0, 1, 0, 0], [1]);
+            let (mut slot, mut group) = stamped(&[0, 0, 1, 0, 0]);
             let mut stamps = Stamps::new(&mut slot, &mut group);
             let step = |k: usize, _: &mut Stamps| {
                 seen.push(k);
@@ -338,7 +471,7 @@ mod tests {
         }
         // a visit that changes nothing passes nothing on
         let mut seen = Vec::new();
-        let (mut slot, mut group) = ([0, 1, 0, 0, 0], [1]);
+        let (mut slot, mut group) = stamped(&[0, 1, 0, 0, 0]);
         let mut stamps = Stamps::new(&mut slot, &mut group);
         let step = |k: usize, _: &mut Stamps| {
             seen.push(k);
@@ -347,14 +480,14 @@ mod tests {
         assert_eq!(f.walk(0, 0..400, false, &mut stamps, 1, step), Walk::Done);
         assert_eq!(seen, vec![0, 1]);
         // too many seeds for the size: a scan instead
-        let (mut slot, mut group) = ([1; 5], [1]);
+        let (mut slot, mut group) = stamped(&[1; 5]);
         let mut stamps = Stamps::new(&mut slot, &mut group);
         assert_eq!(
             f.walk(0, 0..4, false, &mut stamps, 1, |_, _| None),
             Walk::ScanPast(None)
         );
         // a budget that runs out on the way: the scan goes on past the last contact visited
-        let (mut slot, mut group) = ([0, 1, 0, 0, 0], [1]);
+        let (mut slot, mut group) = stamped(&[0, 1, 0, 0, 0]);
         let mut stamps = Stamps::new(&mut slot, &mut group);
         let walk = f.walk(0, 0..8, false, &mut stamps, 1, |k, _| {
             Some(pairs[k]).map(|(i, j)| (i as usize, j as usize))
@@ -370,7 +503,7 @@ mod tests {
         f.index(&pairs, &[0, pairs.len()], 256, 131, false);
         for reverse in [false, true] {
             let mut seen = Vec::new();
-            let (mut slot, mut group) = (vec![0; 131], vec![0; 3]);
+            let (mut slot, mut group) = stamped(&[0; 131]);
             let mut stamps = Stamps::new(&mut slot, &mut group);
             stamps.set(0, 1);
             let step = |k: usize, _: &mut Stamps| {

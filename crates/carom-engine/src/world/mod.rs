@@ -117,8 +117,8 @@ pub struct World<V: Vector> {
     blocks: Blocks,
     /// The work lists' stamps, one per slot, and their sweep clock (see [`crate::schedule`]).
     stamps: Vec<u32>,
-    /// The largest stamp of each group of [`crate::frontier::GROUP`] slots.
-    stamp_groups: Vec<u32>,
+    /// The stamps of each group of [`crate::frontier::GROUP`] slots.
+    stamp_groups: Vec<crate::frontier::GroupStamps>,
     clock: u32,
     pub(crate) block_size: usize,
     sorter: Sorter,

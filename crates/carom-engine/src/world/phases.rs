@@ -345,7 +345,8 @@ impl<V: Vector> World<V> {
     fn contacts_mut(&mut self) -> (Contacts<'_, V>, &mut Particles<V>, &Sleepers) {
         let n = self.store.len();
         self.stamps.resize(n, 0);
-        self.stamp_groups.resize(n.div_ceil(frontier::GROUP), 0);
+        self.stamp_groups
+            .resize(n.div_ceil(frontier::GROUP), Default::default());
         (
             Contacts {
                 pairs: &self.pairs,
