@@ -82,9 +82,12 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
                 break;
             }
         } else {
-            let clock = Instant::now();
-            accelerate(parallel, &mut velocity[..own], asleep, gravity * h);
-            solve.motion += clock.elapsed();
+            // (after the first substep, the move before took gravity in: see below)
+            if index == 0 {
+                let clock = Instant::now();
+                accelerate(parallel, &mut velocity[..own], asleep, gravity * h);
+                solve.motion += clock.elapsed();
+            }
             if !settings.lecture_pairs() || !elastic_planes {
                 warm_start(exchange, velocity, c);
             }
@@ -116,7 +119,11 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         solve.capped |= capped;
         if pass == Pass::Relax {
             let clock = Instant::now();
-            advance_positions(parallel, &mut position[..own], &velocity[..own], asleep, h);
+            // (the next substep's gravity in the same pass over the particles: re-placing the
+            // contacts reads positions alone, so it may come after)
+            let next_fall = (!last_relax).then_some(gravity * h);
+            let (x, v) = (&mut position[..own], &mut velocity[..own]);
+            advance_positions(parallel, x, v, asleep, h, next_fall);
             if substeps > 1 {
                 place(exchange, position, c, h);
             }
@@ -161,24 +168,30 @@ pub(super) fn accelerate<V: Vector>(parallel: bool, velocity: &mut [V], asleep: 
     }
 }
 
-/// `x += v h` for every particle not `asleep` (see [`accelerate`]).
+/// `x += v h`, then `v += dv` when `then_fall` is `Some(dv)`, for every particle not `asleep`
+/// (see [`accelerate`]).
 pub(super) fn advance_positions<V: Vector>(
     parallel: bool,
     position: &mut [V],
-    velocity: &[V],
+    velocity: &mut [V],
     asleep: &[bool],
     h: f64,
+    then_fall: Option<V>,
 ) {
-    let chunk = |(c, (x, v)): (usize, (&mut [V], &[V]))| {
+    let one = |x: &mut V, v: &mut V| {
+        *x += *v * h;
+        if let Some(dv) = then_fall {
+            *v += dv;
+        }
+    };
+    let chunk = |(c, (x, v)): (usize, (&mut [V], &mut [V]))| {
         if asleep.is_empty() {
-            for (x, v) in x.iter_mut().zip(v) {
-                *x += *v * h;
-            }
+            x.iter_mut().zip(v).for_each(|(x, v)| one(x, v));
         } else {
             let asleep = &asleep[c * PARTICLE_CHUNK..][..x.len()];
             for ((x, v), &sleeps) in x.iter_mut().zip(v).zip(asleep) {
                 if !sleeps {
-                    *x += *v * h;
+                    one(x, v);
                 }
             }
         }
@@ -186,13 +199,13 @@ pub(super) fn advance_positions<V: Vector>(
     if parallel {
         position
             .par_chunks_mut(PARTICLE_CHUNK)
-            .zip(velocity.par_chunks(PARTICLE_CHUNK))
+            .zip(velocity.par_chunks_mut(PARTICLE_CHUNK))
             .enumerate()
             .for_each(chunk);
     } else {
         position
             .chunks_mut(PARTICLE_CHUNK)
-            .zip(velocity.chunks(PARTICLE_CHUNK))
+            .zip(velocity.chunks_mut(PARTICLE_CHUNK))
             .enumerate()
             .for_each(chunk);
     }
