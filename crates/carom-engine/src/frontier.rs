@@ -203,6 +203,53 @@ struct Scratch {
     seeds: Vec<u32>,
 }
 
+impl BlockIndex {
+    /// The contacts of span slot `l`, ascending.
+    #[inline]
+    fn of(&self, l: usize) -> &[u32] {
+        &self.list[self.start[l] as usize..self.start[l + 1] as usize]
+    }
+}
+
+/// Sets the bit of contact `k` of a block whose first contact is `first`.
+#[inline]
+fn mark(bits: &mut [u64], first: usize, k: u32) {
+    let bit = k as usize - first;
+    bits[bit / 64] |= 1 << (bit % 64);
+}
+
+impl Scratch {
+    /// Marks the contacts of the slots stamped at least `since` (of the block `index` of
+    /// `contacts`) as pending, and takes them from `budget`; false, marking nothing more,
+    /// when they are more than it.
+    fn seed(
+        &mut self,
+        index: &BlockIndex,
+        contacts: &Range<usize>,
+        stamps: &Stamps,
+        since: u32,
+        budget: &mut usize,
+    ) -> bool {
+        self.pending.clear();
+        self.pending.resize(contacts.len().div_ceil(64), 0);
+        // (first every seed, then their lists' lengths, then the lists: the lookups of one
+        // stage do not wait on each other, which scattered seeds made the walk's main cost)
+        self.seeds.clear();
+        stamps.collect_since(since, index.reached, &mut self.seeds);
+        let seeded: usize = self.seeds.iter().map(|&l| index.of(l as usize).len()).sum();
+        if seeded > *budget {
+            return false;
+        }
+        *budget -= seeded;
+        for &l in &self.seeds {
+            for &k in index.of(l as usize) {
+                mark(&mut self.pending, contacts.start, k);
+            }
+        }
+        true
+    }
+}
+
 thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
@@ -297,66 +344,44 @@ impl Frontier {
         mut visit: impl FnMut(usize, &mut Stamps) -> Option<(usize, usize)>,
     ) -> Walk {
         let index = &self.blocks[block];
-        let of = |l: usize| &index.list[index.start[l] as usize..index.start[l + 1] as usize];
         let first = contacts.start;
-        let mark = |bits: &mut [u64], k: u32| {
-            let bit = k as usize - first;
-            bits[bit / 64] |= 1 << (bit % 64);
-        };
         let mut budget = contacts.len().div_ceil(SCAN_ABOVE) * 2;
-        SCRATCH.with_borrow_mut(
-            |Scratch {
-                 pending: bits,
-                 seeds,
-             }| {
-                let words = contacts.len().div_ceil(64);
-                bits.clear();
-                bits.resize(words, 0);
-                // (first every seed, then their lists' lengths, then the lists: the lookups of one
-                // stage do not wait on each other, which scattered seeds made the walk's main cost)
-                seeds.clear();
-                stamps.collect_since(since, index.reached, seeds);
-                let seeded: usize = seeds.iter().map(|&l| of(l as usize).len()).sum();
-                if seeded > budget {
-                    return Walk::ScanPast(None);
-                }
-                budget -= seeded;
-                for &l in seeds.iter() {
-                    for &k in of(l as usize) {
-                        mark(bits, k);
-                    }
-                }
-                let word_order: &mut dyn Iterator<Item = usize> = if reverse {
-                    &mut (0..words).rev()
-                } else {
-                    &mut (0..words)
-                };
-                for w in word_order {
-                    while bits[w] != 0 {
-                        let bit = if reverse {
-                            63 - bits[w].leading_zeros() as usize
-                        } else {
-                            bits[w].trailing_zeros() as usize
-                        };
-                        bits[w] &= !(1 << bit);
-                        let k = first + w * 64 + bit;
-                        if let Some((i, j)) = visit(k, stamps) {
-                            let more = of(i).len() + of(j).len();
-                            if more > budget {
-                                return Walk::ScanPast(Some(k));
-                            }
-                            budget -= more;
-                            for &m in of(i).iter().chain(of(j)) {
-                                if (m as usize > k) != reverse && m as usize != k {
-                                    mark(bits, m);
-                                }
+        SCRATCH.with_borrow_mut(|scratch| {
+            if !scratch.seed(index, &contacts, stamps, since, &mut budget) {
+                return Walk::ScanPast(None);
+            }
+            let bits = &mut scratch.pending;
+            let words = bits.len();
+            let word_order: &mut dyn Iterator<Item = usize> = if reverse {
+                &mut (0..words).rev()
+            } else {
+                &mut (0..words)
+            };
+            for w in word_order {
+                while bits[w] != 0 {
+                    let bit = if reverse {
+                        63 - bits[w].leading_zeros() as usize
+                    } else {
+                        bits[w].trailing_zeros() as usize
+                    };
+                    bits[w] &= !(1 << bit);
+                    let k = first + w * 64 + bit;
+                    if let Some((i, j)) = visit(k, stamps) {
+                        let more = index.of(i).len() + index.of(j).len();
+                        if more > budget {
+                            return Walk::ScanPast(Some(k));
+                        }
+                        budget -= more;
+                        for &m in index.of(i).iter().chain(index.of(j)) {
+                            if (m as usize > k) != reverse && m as usize != k {
+                                mark(bits, first, m);
                             }
                         }
                     }
                 }
-                Walk::Done
-            },
-        )
+            }
+            Walk::Done
+        })
     }
 }
 

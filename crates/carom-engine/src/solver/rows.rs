@@ -2,7 +2,7 @@
 //! step's contacts and moving particles that the phases work on.
 
 use super::settings::*;
-use crate::broadphase::Pair;
+use crate::broadphase::{keep_headroom, Pair};
 use crate::frontier::Stamps;
 use crate::periodic::apply_shift;
 use crate::plane::Plane;
@@ -425,6 +425,31 @@ pub(crate) fn prepare_rows<V: Vector>(
     } else {
         fill((rows.as_mut(), pairs));
     }
+}
+
+/// Replaces `rows` with one [`PlaneRow`] per plane contact `(slot, plane)`, the particles at
+/// `position` with radius `radius`, for a step of `dt`.
+pub(crate) fn prepare_plane_rows<V: Vector>(
+    rows: &mut Vec<PlaneRow<V>>,
+    contacts: &[PlaneContact],
+    planes: &[Plane<V>],
+    position: &[V],
+    radius: &[f64],
+    dt: f64,
+) {
+    rows.clear();
+    rows.reserve(contacts.len());
+    keep_headroom(rows);
+    rows.extend(contacts.iter().map(|&(slot, plane)| {
+        let slot = slot as usize;
+        PlaneRow::new(
+            &planes[plane as usize],
+            plane,
+            position[slot],
+            radius[slot],
+            dt,
+        )
+    }));
 }
 
 /// This step's contacts, planned into blocks, with their rows.

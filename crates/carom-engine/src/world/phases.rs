@@ -11,7 +11,7 @@ use crate::periodic;
 use crate::plane::plane_candidates;
 use crate::schedule::{Alone, PlaneContact};
 use crate::sleep::{self, Sleepers, Support};
-use crate::solver::{self, Contacts, Moving, PlaneRow, Row, VelocitySolve, WorkList};
+use crate::solver::{self, Contacts, Moving, Row, VelocitySolve, WorkList};
 use crate::step::Phases;
 use crate::timing::PhaseTimes;
 use crate::vector::Vector;
@@ -104,21 +104,14 @@ impl<V: Vector> Phases for World<V> {
                 dt,
             )
         });
-        self.plane_rows.clear();
-        self.plane_rows.reserve(self.plane_contacts.len());
-        keep_headroom(&mut self.plane_rows);
-        let planes = &self.planes;
-        self.plane_rows
-            .extend(self.plane_contacts.iter().map(|&(i, plane)| {
-                let i = i as usize;
-                PlaneRow::new(
-                    &planes[plane as usize],
-                    plane,
-                    p.position[i],
-                    p.radius[i],
-                    dt,
-                )
-            }));
+        solver::prepare_plane_rows(
+            &mut self.plane_rows,
+            &self.plane_contacts,
+            &self.planes,
+            &p.position,
+            &p.radius,
+            dt,
+        );
         self.memory.warm_rows(
             &self.pairs,
             &mut self.rows.row,

@@ -8,7 +8,7 @@ use crate::cluster::wire::{Reader, Writer};
 use crate::grid::{bounding_box, largest, widened_reach};
 use crate::plane::plane_candidates;
 use crate::sleep;
-use crate::solver::{self, PlaneRow, Row};
+use crate::solver::{self, Row};
 use crate::vector::Vector;
 
 use super::*;
@@ -142,7 +142,6 @@ impl<V: Vector> Subdomain<V> {
             .extend(self.candidates.iter().map(|c| search.id[c.1 .1 as usize]));
         self.mark_sleepers(link);
         self.plane_contacts.clear();
-        self.plane_rows.clear();
         let in_move =
             (self.config.solver_settings()).planes_in_move(&self.planes, self.config.gravity);
         let (window, reach, sleepers) = (&self.window, &self.reach, &self.sleepers);
@@ -154,18 +153,14 @@ impl<V: Vector> Subdomain<V> {
             |s| sleepers.sleeps(s),
             &mut self.plane_contacts,
         );
-        let planes = &self.planes;
-        self.plane_rows
-            .extend(self.plane_contacts.iter().map(|&(s, p)| {
-                let s = s as usize;
-                PlaneRow::new(
-                    &planes[p as usize],
-                    p,
-                    window.position[s],
-                    window.radius[s],
-                    dt,
-                )
-            }));
+        solver::prepare_plane_rows(
+            &mut self.plane_rows,
+            &self.plane_contacts,
+            &self.planes,
+            &window.position,
+            &window.radius,
+            dt,
+        );
         let parallel = self.partition.slots() >= PARALLEL_MIN;
         let candidates = &self.candidates;
         let (search, sleepers) = (&self.search, &self.sleepers);
