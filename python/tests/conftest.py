@@ -12,7 +12,7 @@ SCENES = ROOT / "scenes"
 
 
 # 120 discs poured into a small walled box at dt = 1/60: resting contacts from about step 250,
-# the whole pile asleep from step 355 (a cheap stand-in for `lecture_pile_60hz`).
+# the whole pile asleep from step 385 (a cheap stand-in for `lecture_pile_60hz`).
 SMALL_PILE = """
 name = "A small pile at dt = 1/60"
 dimensions = 2
