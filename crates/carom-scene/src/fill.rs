@@ -1,6 +1,7 @@
 //! The particle set of a scene: explicit `[[particles]]`, then each `[[fill]]` placed without
 //! overlap (random, seeded; or on a lattice).
 
+use crate::placement::PlacementGrid;
 use crate::raw::{RawArrangement, RawFill, RawScene};
 use crate::walls::Walled;
 use crate::{Ctx, SceneError};
@@ -49,9 +50,10 @@ pub(crate) fn particles<V: Vector>(
         grid: PlacementGrid::new(bounds, max_radius, total as usize),
         seams: periodic.zip(domain),
     };
-    for (id, (&x, &r)) in out.positions().iter().zip(out.radii()).enumerate() {
-        placer.grid.insert(x, r, id as u32);
+    for (&x, &r) in out.positions().iter().zip(out.radii()) {
+        placer.grid.insert(x, r);
     }
+    placer.grid.settle();
     for (i, f) in raw.fill.iter().enumerate() {
         fill_one(ctx, i, f, regions[i], &mut placer, &mut out)?;
     }
@@ -176,23 +178,35 @@ impl<V: Vector> Placer<V> {
         self.seams.map_or(x, |(p, _)| p.wrap(x))
     }
 
-    /// True when a particle of `radius` at `x` would overlap one already placed, of id
-    /// `since` or above (0: any).
-    fn overlaps(&self, x: V, radius: f64, since: u32) -> bool {
+    /// True when a particle of `radius` at `x` would overlap a settled one (see
+    /// [`PlacementGrid`]), across the seams too.
+    fn overlaps_settled(&self, x: V, radius: f64) -> bool {
         match &self.seams {
-            None => self.grid.overlaps(x, radius, since),
-            Some((p, d)) => self.grid.overlaps_across(p, d, x, radius, since),
+            None => self.grid.overlaps_settled(x, radius),
+            Some((p, d)) => self.grid.across_seams(p, d, x, radius, |image| {
+                self.grid.overlaps_settled(image, radius)
+            }),
         }
     }
 
-    /// For each of `tries`, whether a particle of `radius` there would overlap one already
-    /// placed.
-    fn refusals(&self, tries: &[V], radius: f64, refused: &mut [bool]) {
+    /// True when a particle of `radius` at `x` would overlap a recent one (see
+    /// [`PlacementGrid`]), across the seams too.
+    fn overlaps_recent(&self, x: V, radius: f64) -> bool {
+        match &self.seams {
+            None => self.grid.overlaps_recent(x, radius),
+            Some((p, d)) => self.grid.across_seams(p, d, x, radius, |image| {
+                self.grid.overlaps_recent(image, radius)
+            }),
+        }
+    }
+
+    /// For each of `tries`, whether a particle of `radius` there would overlap a settled one.
+    fn refusals(&self, tries: impl Iterator<Item = V>, radius: f64, refused: &mut [bool]) {
         match &self.seams {
             None => self.grid.refusals(tries, radius, refused),
             Some(_) => {
-                for (&x, refused) in tries.iter().zip(refused) {
-                    *refused = self.overlaps(x, radius, 0);
+                for (x, refused) in tries.zip(refused) {
+                    *refused = self.overlaps_settled(x, radius);
                 }
             }
         }
@@ -206,10 +220,9 @@ impl<V: Vector> Placer<V> {
         out: &mut Particles<V>,
         (x, v, radius, mass): (V, V, f64, f64),
     ) -> Result<(), SceneError> {
-        let id = out
-            .push(x, v, radius, mass)
+        out.push(x, v, radius, mass)
             .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
-        self.grid.insert(x, radius, id as u32);
+        self.grid.insert(x, radius);
         Ok(())
     }
 }
@@ -294,17 +307,21 @@ fn fill_one<V: Vector>(
     }
 }
 
-/// Random tries drawn and checked together (see [`place_random`]). The particles placed do not
-/// depend on it: a batch of 1 places the same ones.
+/// Random tries drawn and checked together (see [`place_random`]): at least this many, or
+/// half as many as the particles placed so far (each batch ends by merging its particles into
+/// the settled ones, a pass over them all). The particles placed do not depend on it: a batch
+/// of 1 places the same ones.
 const TRIES_PER_BATCH: usize = 65536;
+
+/// How many tries ahead of the one being placed the in-order part of a batch fetches what
+/// that try will read.
+const TRIES_AHEAD: usize = 8;
+
+/// The most tries in a batch (each takes 8 D + 10 bytes of [`Screen`]).
+const MAX_TRIES_PER_BATCH: usize = 1 << 18;
 
 /// Tries per task of a batch's check on the thread pool.
 const TRIES_PER_TASK: usize = 512;
-
-/// Tries checked in step within a task: the cell heads of all of them are fetched, then the
-/// first particle of each of their cells, then their lists are walked, so that the cache
-/// misses of several tries are in flight together instead of one after another.
-const TRIES_IN_STEP: usize = 8;
 
 /// How far along the fill's random stream its velocities are drawn: the positions of the tries
 /// come from the start of the stream and the velocities from here, so a try's position does
@@ -315,11 +332,12 @@ const VELOCITY_STREAM_OFFSET: u128 = 1 << 100;
 /// before it: random sequential adsorption, try after try.
 ///
 /// The tries are checked in batches. Every try of a batch is first checked against the
-/// particles placed before the batch, on the thread pool (the grid is only read, and the tries
-/// are independent, so their cache misses overlap instead of following one another); then,
-/// in order, each try that passed is checked against the particles placed earlier in the same
-/// batch alone, and placed. A try is placed exactly when it overlaps nothing placed before it,
-/// as one try after another would decide, for any batch size or thread count.
+/// particles placed before the batch (the settled ones of [`PlacementGrid`]), on the thread
+/// pool and in the order of their cells (the grid is only read, and the tries are
+/// independent); then, in order, each try that passed is checked against the particles placed
+/// earlier in the same batch alone (the recent ones), and placed. A try is placed exactly when
+/// it overlaps nothing placed before it, as one try after another would decide, for any batch
+/// size or thread count.
 fn place_random<V: Vector>(
     ctx: &Ctx,
     i: usize,
@@ -328,10 +346,11 @@ fn place_random<V: Vector>(
     placer: &mut Placer<V>,
     out: &mut Particles<V>,
 ) -> Result<(), SceneError> {
-    place_random_in_batches(ctx, i, fill, rng, placer, out, TRIES_PER_BATCH)
+    let batch = |placed: usize| (placed / 2).clamp(TRIES_PER_BATCH, MAX_TRIES_PER_BATCH);
+    place_random_in_batches(ctx, i, fill, rng, placer, out, batch)
 }
 
-/// [`place_random`] with `batch` tries checked together.
+/// [`place_random`] with `batch(particles placed so far)` tries checked together.
 fn place_random_in_batches<V: Vector>(
     ctx: &Ctx,
     i: usize,
@@ -339,7 +358,7 @@ fn place_random_in_batches<V: Vector>(
     rng: &mut Pcg64,
     placer: &mut Placer<V>,
     out: &mut Particles<V>,
-    batch: usize,
+    batch: impl Fn(usize) -> usize,
 ) -> Result<(), SceneError> {
     let (count, radius) = (fill.count, fill.radius);
     let lo = fill.region.min + V::from_slice(&[radius; 3]);
@@ -352,7 +371,7 @@ fn place_random_in_batches<V: Vector>(
     let mut screen = Screen::default();
     while attempts < budget {
         screen.tries.clear();
-        let size = (batch as u64).min(budget - attempts) as usize;
+        let size = (batch(out.len()).max(1) as u64).min(budget - attempts) as usize;
         for _ in 0..size {
             let mut c = [0.0; 3];
             for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
@@ -360,21 +379,28 @@ fn place_random_in_batches<V: Vector>(
             }
             screen.tries.push(placer.wrap(V::from_slice(&c)));
         }
-        placer.grid.forget_marks();
-        let before_batch = out.len() as u32;
+        placer.grid.settle();
         screen.check(placer, radius);
-        for (&x, &refused) in screen.tries.iter().zip(&screen.refused) {
+        for (k, (&x, &refused)) in screen.tries.iter().zip(&screen.refused).enumerate() {
+            // (what the check and the placement of a try a few ahead will read, fetched now)
+            if screen.refused.get(k + TRIES_AHEAD) == Some(&false) {
+                placer
+                    .grid
+                    .prefetch_recent(screen.tries[k + TRIES_AHEAD], radius);
+            }
             attempts += 1;
-            if refused || placer.overlaps(x, radius, before_batch) {
+            if refused || placer.overlaps_recent(x, radius) {
                 continue;
             }
             let v = fill.velocity(&mut velocities);
             placer.place(ctx, i, out, (x, v, radius, fill.mass))?;
             if (out.len() - start) as u64 == count {
+                placer.grid.settle();
                 return Ok(());
             }
         }
     }
+    placer.grid.settle();
     Err(ctx.err(
         format!("fill[{i}].count"),
         format!(
@@ -394,14 +420,14 @@ struct Screen<V> {
     refused: Vec<bool>,
     /// Each try's cell (high half) and index (low half), sorted.
     by_cell: Vec<u64>,
-    sorted: Vec<V>,
+    /// Whether each try in that order is refused.
     sorted_refused: Vec<bool>,
 }
 
 impl<V: Vector> Screen<V> {
     /// Fills `refused` for a particle of `radius` at each try, on the thread pool. The tries
     /// are checked in the order of their cells, so that tries checked one after another read
-    /// neighbouring cells (10^6 spheres: 0.91x the time of checking them in the order drawn).
+    /// neighbouring cells, which lie next to each other in memory.
     fn check(&mut self, placer: &Placer<V>, radius: f64) {
         let grid = &placer.grid;
         self.by_cell.clear();
@@ -409,19 +435,19 @@ impl<V: Vector> Screen<V> {
             self.tries
                 .iter()
                 .enumerate()
-                .map(|(k, &x)| ((grid.linear(grid.coords(x)) as u64) << 32) | k as u64),
+                .map(|(k, &x)| ((grid.cell_of(x) as u64) << 32) | k as u64),
         );
         self.by_cell.par_sort_unstable();
         let index = |key: u64| (key & u64::from(u32::MAX)) as usize;
-        self.sorted.clear();
-        self.sorted
-            .extend(self.by_cell.iter().map(|&key| self.tries[index(key)]));
         self.sorted_refused.clear();
-        self.sorted_refused.resize(self.sorted.len(), false);
-        self.sorted
+        self.sorted_refused.resize(self.tries.len(), false);
+        let tries = &self.tries;
+        self.by_cell
             .par_chunks(TRIES_PER_TASK)
             .zip(self.sorted_refused.par_chunks_mut(TRIES_PER_TASK))
-            .for_each(|(tries, refused)| placer.refusals(tries, radius, refused));
+            .for_each(|(keys, refused)| {
+                placer.refusals(keys.iter().map(|&key| tries[index(key)]), radius, refused)
+            });
         self.refused.clear();
         self.refused.resize(self.tries.len(), false);
         for (&key, &refused) in self.by_cell.iter().zip(&self.sorted_refused) {
@@ -474,7 +500,7 @@ fn place_lattice<V: Vector>(
             site[a] = 0;
         }
         let x = placer.wrap(V::from_slice(&c));
-        if placer.overlaps(x, radius, 0) {
+        if placer.overlaps_settled(x, radius) || placer.overlaps_recent(x, radius) {
             continue;
         }
         let v = fill.velocity(rng);
@@ -499,295 +525,14 @@ fn random_direction<V: Vector>(rng: &mut Pcg64) -> V {
     }
 }
 
-/// Placement-time overlap checks on a dense grid of linked lists: a head per cell (4 bytes)
-/// and, per placed particle, its centre and radius beside the next particle of its cell. A
-/// random candidate lands anywhere in a box of millions, so the cells and particles it looks
-/// at are cache misses: keeping the centre and radius beside the link (instead of looking
-/// them up in the scene's separate position and radius arrays) makes that one miss per
-/// particle instead of three. Cells are at least one largest diameter wide, so every particle
-/// that can touch a new one is in the 3^D cells around it.
-struct PlacementGrid<V> {
-    origin: [f64; 3],
-    inverse_cell: f64,
-    max_radius: f64,
-    dims: [usize; 3],
-    head: Vec<u32>,
-    placed: Vec<Placed<V>>,
-    /// One bit per cell: set for the cell of every particle placed since `marks_from`.
-    marks: Vec<u64>,
-    /// The cells whose bits are set.
-    marked: Vec<u32>,
-    /// Every particle of this id or above sits in a marked cell.
-    marks_from: u32,
-}
-
-/// One placed particle in a [`PlacementGrid`].
-#[derive(Clone, Copy)]
-struct Placed<V> {
-    centre: V,
-    radius: f64,
-    /// The particle placed before it in the same cell, or [`EMPTY`].
-    next: u32,
-}
-
-const EMPTY: u32 = u32::MAX;
-
-/// Hints the processor to bring the cache line of `value` in; no effect on any result.
-#[inline]
-fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        // SAFETY: a prefetch is a hint: it never faults and reads nothing the program sees,
-        // and the address is a live reference besides.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast::<i8>()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
-}
-
-impl<V: Vector> PlacementGrid<V> {
-    /// A grid over `bounds` for `capacity` particles of radius at most `max_radius`.
-    fn new(bounds: Aabb<V>, max_radius: f64, capacity: usize) -> Self {
-        let mut cell = 2.0 * max_radius;
-        let extent: Vec<f64> = (0..V::DIM)
-            .map(|a| bounds.max.get(a) - bounds.min.get(a))
-            .collect();
-        // Never more than ~4 cells per particle: coarser cells stay correct, just slower.
-        let limit = (4 * capacity + 1024) as f64;
-        let count = |cell: f64| {
-            extent
-                .iter()
-                .map(|e| (e / cell).floor() + 1.0)
-                .product::<f64>()
-        };
-        if count(cell) > limit {
-            cell *= (count(cell) / limit).powf(1.0 / V::DIM as f64) * 1.01;
-            while count(cell) > limit {
-                cell *= 1.1;
-            }
-        }
-        let mut dims = [1usize; 3];
-        let mut origin = [0.0; 3];
-        for a in 0..V::DIM {
-            dims[a] = (extent[a] / cell).floor() as usize + 1;
-            origin[a] = bounds.min.get(a);
-        }
-        Self {
-            origin,
-            inverse_cell: 1.0 / cell,
-            max_radius,
-            dims,
-            head: vec![EMPTY; dims.iter().product()],
-            placed: Vec::with_capacity(capacity),
-            marks: vec![0; dims.iter().product::<usize>().div_ceil(64)],
-            marked: Vec::new(),
-            marks_from: 0,
-        }
-    }
-
-    fn coords(&self, x: V) -> [usize; 3] {
-        let mut c = [0usize; 3];
-        for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
-            *slot = self.axis_cell(a, x.get(a));
-        }
-        c
-    }
-
-    fn linear(&self, c: [usize; 3]) -> usize {
-        (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
-    }
-
-    /// Adds particle `id` at `centre` (ids must arrive in order 0, 1, 2, ...).
-    fn insert(&mut self, centre: V, radius: f64, id: u32) {
-        debug_assert_eq!(id as usize, self.placed.len());
-        let cell = self.linear(self.coords(centre));
-        self.placed.push(Placed {
-            centre,
-            radius,
-            next: self.head[cell],
-        });
-        self.head[cell] = id;
-        let (word, bit) = (cell / 64, 1u64 << (cell % 64));
-        if self.marks[word] & bit == 0 {
-            self.marks[word] |= bit;
-            self.marked.push(cell as u32);
-        }
-    }
-
-    /// Clears the marks: from now on, only the cells of particles placed after this call are
-    /// marked, so a check for those alone ([`PlacementGrid::overlaps`] with `since` the
-    /// particle count now) reads a bit per cell instead of each cell's head.
-    fn forget_marks(&mut self) {
-        for cell in self.marked.drain(..) {
-            self.marks[cell as usize / 64] &= !(1u64 << (cell % 64));
-        }
-        self.marks_from = self.placed.len() as u32;
-    }
-
-    fn is_marked(&self, cell: usize) -> bool {
-        self.marks[cell / 64] & (1u64 << (cell % 64)) != 0
-    }
-
-    /// The cell holding `coordinate` on `axis`, clamped to the grid: `floor` of the scaled
-    /// coordinate, as truncation (the same for `t >= 0`; anything below clamps to 0, and a
-    /// NaN, which `as` turns into 0, too) so the hot loop makes no libm call.
-    fn axis_cell(&self, axis: usize, coordinate: f64) -> usize {
-        let t = (coordinate - self.origin[axis]) * self.inverse_cell;
-        (t as i64).clamp(0, self.dims[axis] as i64 - 1) as usize
-    }
-
-    /// [`PlacementGrid::overlaps`] for `x` and its images across the seams of `periodic`
-    /// (`domain`'s periodic axes) that lie within reach of another particle: `x` is wrapped,
-    /// so an image one period away can only touch particles near the opposite face.
-    fn overlaps_across(
-        &self,
-        periodic: &Periodic,
-        domain: &Aabb<V>,
-        x: V,
-        radius: f64,
-        since: u32,
-    ) -> bool {
-        let reach = radius + self.max_radius;
-        // Per axis: no shift, and one period towards the far face when x is near a face.
-        let mut shifts = [[0.0; 2]; 3];
-        let mut count = [1usize; 3];
-        for a in (0..V::DIM).filter(|&a| periodic.is_periodic(a)) {
-            let (c, length) = (x.get(a), periodic.length(a));
-            let widened = carom_engine::grid::widened_reach(c.abs() + length, reach);
-            if c - domain.min.get(a) < widened {
-                shifts[a][1] = length;
-                count[a] = 2;
-            } else if domain.max.get(a) - c < widened {
-                shifts[a][1] = -length;
-                count[a] = 2;
-            }
-        }
-        for z in &shifts[2][..count[2]] {
-            for y in &shifts[1][..count[1]] {
-                for sx in &shifts[0][..count[0]] {
-                    let image = x + V::from_slice(&[*sx, *y, *z]);
-                    if self.overlaps(image, radius, since) {
-                        return true;
-                    }
-                }
-            }
-        }
-        false
-    }
-
-    /// The first and last cell per axis that can hold a particle touching one of `radius` at
-    /// `x`: within reach, widened past rounding (see carom_engine::grid). Reach is at most a
-    /// cell, so at most 4 cells per axis.
-    fn cell_range(&self, x: V, radius: f64) -> ([usize; 3], [usize; 3]) {
-        let reach = radius + self.max_radius;
-        let mut lo = [0usize; 3];
-        let mut hi = [0usize; 3];
-        for a in 0..V::DIM {
-            let c = x.get(a);
-            let widened = carom_engine::grid::widened_reach(c, reach);
-            lo[a] = self.axis_cell(a, c - widened);
-            hi[a] = self.axis_cell(a, c + widened);
-        }
-        (lo, hi)
-    }
-
-    /// [`PlacementGrid::overlaps`] (with `since` 0) of each of `tries`, [`TRIES_IN_STEP`] at
-    /// a time in stages: the same answers, with the misses of several tries overlapping.
-    fn refusals(&self, tries: &[V], radius: f64, refused: &mut [bool]) {
-        type Range = ([usize; 3], [usize; 3]);
-        for (tries, refused) in tries
-            .chunks(TRIES_IN_STEP)
-            .zip(refused.chunks_mut(TRIES_IN_STEP))
-        {
-            let mut ranges: [Range; TRIES_IN_STEP] = [([0; 3], [0; 3]); TRIES_IN_STEP];
-            for (&x, range) in tries.iter().zip(&mut ranges) {
-                *range = self.cell_range(x, radius);
-                let (lo, hi) = *range;
-                for z in lo[2]..=hi[2] {
-                    for y in lo[1]..=hi[1] {
-                        prefetch(&self.head[self.linear([lo[0], y, z])]);
-                    }
-                }
-            }
-            for &(lo, hi) in &ranges[..tries.len()] {
-                for z in lo[2]..=hi[2] {
-                    for y in lo[1]..=hi[1] {
-                        let row = self.linear([0, y, z]);
-                        for &head in &self.head[row + lo[0]..=row + hi[0]] {
-                            if let Some(first) = self.placed.get(head as usize) {
-                                prefetch(first);
-                            }
-                        }
-                    }
-                }
-            }
-            for (&x, refused) in tries.iter().zip(refused.iter_mut()) {
-                *refused = self.overlaps(x, radius, 0);
-            }
-        }
-    }
-
-    /// True when a particle of `radius` at `x` would overlap one already placed, of id
-    /// `since` or above (0: any).
-    fn overlaps(&self, x: V, radius: f64, since: u32) -> bool {
-        let (lo, hi) = self.cell_range(x, radius);
-        // Every cell's head first, then the chains: the heads are independent loads, each
-        // likely a cache miss, and the processor fetches them together instead of one after
-        // another. (Whether any placed particle overlaps does not depend on the order.)
-        // (the particles of `since` or above lie in marked cells: the others need no look)
-        let unmarked_are_older = since >= self.marks_from;
-        let mut heads = [EMPTY; 64];
-        let mut count = 0;
-        for z in lo[2]..=hi[2] {
-            for y in lo[1]..=hi[1] {
-                let row = self.linear([0, y, z]);
-                for cell in row + lo[0]..=row + hi[0] {
-                    if unmarked_are_older && !self.is_marked(cell) {
-                        continue;
-                    }
-                    let head = self.head[cell];
-                    if count < heads.len() {
-                        heads[count] = head;
-                        count += 1;
-                    } else if self.chain_overlaps(head, x, radius, since) {
-                        return true;
-                    }
-                }
-            }
-        }
-        heads[..count]
-            .iter()
-            .any(|&head| self.chain_overlaps(head, x, radius, since))
-    }
-
-    /// True when a particle of the cell list starting at `head`, of id `since` or above,
-    /// overlaps one of `radius` at `x`.
-    #[inline]
-    fn chain_overlaps(&self, head: u32, x: V, radius: f64, since: u32) -> bool {
-        // (a cell's list runs from its latest particle to its first: ids fall along it)
-        let mut j = head;
-        while j != EMPTY && j >= since {
-            let other = &self.placed[j as usize];
-            let reach = radius + other.radius;
-            if (other.centre - x).length_squared() < reach * reach {
-                return true;
-            }
-            j = other.next;
-        }
-        false
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use glam::{DVec2, DVec3};
     use rand::SeedableRng;
 
-    /// `count` particles placed at random in the box (-half, half)^D, `batch` tries at a time,
-    /// with the given radius mix (every third particle of a second fill twice as large), across
-    /// periodic seams when `periodic`.
+    /// Two fills of `count` particles each (radius 0.5, then 1) placed at random in the box
+    /// (-half, half)^D, `batch` tries at a time, across periodic seams when `periodic`.
     fn placed<V: Vector>(batch: usize, count: u64, half: f64, periodic: bool) -> Particles<V> {
         let ctx = Ctx { origin: "test" };
         let region = Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap();
@@ -812,7 +557,7 @@ mod tests {
                 region,
             };
             let mut rng = Pcg64::seed_from_u64(11 + i as u64);
-            place_random_in_batches(&ctx, i, &fill, &mut rng, &mut placer, &mut out, batch)
+            place_random_in_batches(&ctx, i, &fill, &mut rng, &mut placer, &mut out, |_| batch)
                 .unwrap();
         }
         out
@@ -825,6 +570,19 @@ mod tests {
         fn same<V: Vector>(count: u64, half: f64, periodic: bool) {
             let one = placed::<V>(1, count, half, periodic);
             assert_eq!(one.len(), 2 * count as usize);
+            let (x, r) = (one.positions(), one.radii());
+            let box_ = Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap();
+            let seams = Periodic::new(&box_, &[periodic; 3][..V::DIM]);
+            for i in 0..x.len() {
+                for j in i + 1..x.len() {
+                    let xj = seams.map_or(x[j], |p| p.image(x[i], x[j]));
+                    let reach = r[i] + r[j];
+                    assert!(
+                        (x[i] - xj).length_squared() >= reach * reach,
+                        "{i} and {j} overlap"
+                    );
+                }
+            }
             for batch in [2, 7, 64, TRIES_PER_BATCH] {
                 let got = placed::<V>(batch, count, half, periodic);
                 assert_eq!(

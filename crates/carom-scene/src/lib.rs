@@ -8,6 +8,7 @@
 mod error;
 mod fill;
 pub mod machine;
+mod placement;
 mod presets;
 mod raw;
 mod walls;
