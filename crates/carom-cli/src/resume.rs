@@ -100,7 +100,7 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
     if let Some(out) = &args.out {
         check_output_path("--out", out)?;
     }
-    let scene = carom_scene::parse(&cp.scene_toml, &cp.origin)
+    let scene = crate::input::parse_scene(&cp.scene_toml, &cp.origin)
         .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
     match scene {
         carom_scene::AnyScene::Two(s) => resume_scene(s, &cp, &settings, &outputs, args),

@@ -83,7 +83,7 @@ pub enum BroadPhaseArg {
 
 /// `carom check`: parse the scene and build its world, without stepping.
 pub fn check(path: &Path) -> Result<(), Failure> {
-    let scene = carom_scene::load(path)?;
+    let (scene, _, _) = load_scene(Some(path), None)?;
     let (n, world_check) = match &scene {
         AnyScene::Two(s) => (s.particles.len(), s.build_world().map(|_| ())),
         AnyScene::Three(s) => (s.particles.len(), s.build_world().map(|_| ())),

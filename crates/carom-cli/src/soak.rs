@@ -35,7 +35,7 @@ pub fn soak(args: &SoakArgs) -> Result<(), Failure> {
         return Err(Failure::input("--every: must be at least 1"));
     }
     let (text, origin) = scene_text(args.scene.as_deref(), Some("lecture_5000_grid100"))?;
-    let scene = carom_scene::parse(&text, &origin)?;
+    let scene = crate::input::parse_scene(&text, &origin)?;
     match scene {
         AnyScene::Two(s) => soak_world(s.into_world(), &origin, args),
         AnyScene::Three(s) => soak_world(s.into_world(), &origin, args),

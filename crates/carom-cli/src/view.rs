@@ -40,7 +40,7 @@ pub fn view(args: &ViewArgs) -> Result<(), Failure> {
     let (w, h) = parse_size("--size", &args.size, 200..=16384)?;
     let (mut text, origin) = scene_text(args.scene.as_deref(), args.preset.as_deref())?;
     // Check the scene here, so that a bad file is one message and exit status 2, not a window.
-    let mut scene = carom_scene::parse(&text, &origin)?;
+    let mut scene = crate::input::parse_scene(&text, &origin)?;
     if let Some(radius) = args.radius.filter(|r| !(r.is_finite() && *r > 0.0)) {
         return Err(Failure::input(format!(
             "--radius: must be a finite number > 0, got {radius}"
@@ -59,7 +59,7 @@ pub fn view(args: &ViewArgs) -> Result<(), Failure> {
         };
         text = carom_viewer::control::refill(&text, count, radius)
             .map_err(|e| Failure::input(format!("--count/--radius: {e}")))?;
-        scene = carom_scene::parse(&text, &origin)
+        scene = crate::input::parse_scene(&text, &origin)
             .map_err(|e| Failure::input(format!("--count/--radius: {e}")))?;
     }
     let particles = match &scene {

@@ -49,6 +49,7 @@ pub(crate) fn particles<V: Vector>(
     let mut placer = Placer {
         grid: PlacementGrid::new(bounds, max_radius, total as usize),
         seams: periodic.zip(domain),
+        total,
     };
     for (&x, &r) in out.positions().iter().zip(out.radii()) {
         placer.grid.insert(x, r);
@@ -57,6 +58,7 @@ pub(crate) fn particles<V: Vector>(
     for (i, f) in raw.fill.iter().enumerate() {
         fill_one(ctx, i, f, regions[i], &mut placer, &mut out)?;
     }
+    (ctx.progress)(out.len() as u64, total);
     Ok(out)
 }
 
@@ -170,6 +172,8 @@ fn regions<V: Vector>(
 struct Placer<V> {
     grid: PlacementGrid<V>,
     seams: Option<(Periodic, Aabb<V>)>,
+    /// The scene's particles in all, for progress reports.
+    total: u64,
 }
 
 impl<V: Vector> Placer<V> {
@@ -399,6 +403,7 @@ fn place_random_in_batches<V: Vector>(
                 return Ok(());
             }
         }
+        (ctx.progress)(out.len() as u64, placer.total);
     }
     placer.grid.settle();
     Err(ctx.err(
@@ -505,9 +510,15 @@ fn place_lattice<V: Vector>(
         }
         let v = fill.velocity(rng);
         placer.place(ctx, i, out, (x, v, radius, fill.mass))?;
+        if out.len() % LATTICE_SITES_PER_REPORT == 0 {
+            (ctx.progress)(out.len() as u64, placer.total);
+        }
     }
     Ok(())
 }
+
+/// Lattice particles placed between two progress reports.
+const LATTICE_SITES_PER_REPORT: usize = 65536;
 
 const GIB: f64 = (1u64 << 30) as f64;
 
@@ -534,7 +545,10 @@ mod tests {
     /// Two fills of `count` particles each (radius 0.5, then 1) placed at random in the box
     /// (-half, half)^D, `batch` tries at a time, across periodic seams when `periodic`.
     fn placed<V: Vector>(batch: usize, count: u64, half: f64, periodic: bool) -> Particles<V> {
-        let ctx = Ctx { origin: "test" };
+        let ctx = Ctx {
+            origin: "test",
+            progress: &|_, _| {},
+        };
         let region = Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap();
         let seams = periodic.then(|| {
             (
@@ -545,6 +559,7 @@ mod tests {
         let mut placer = Placer {
             grid: PlacementGrid::new(region, 1.0, 2 * count as usize),
             seams,
+            total: 2 * count,
         };
         let mut out = Particles::new();
         for (i, radius) in [(0, 0.5), (1, 1.0)] {
@@ -561,6 +576,26 @@ mod tests {
                 .unwrap();
         }
         out
+    }
+
+    /// Progress comes after each batch, never falls back, and ends at the total.
+    #[test]
+    fn progress_rises_to_the_total() {
+        // (the random fill at 39 % of the area: more than one batch of tries)
+        let text =
+            "dimensions = 2\ndt = 0.01\n[domain]\nmin = [-100.0, -100.0]\nmax = [100.0, 100.0]\n\
+                    [[fill]]\ncount = 20000\nradius = 0.5\nseed = 3\n\
+                    [[fill]]\ncount = 100\nradius = 0.1\narrangement = \"lattice\"\n";
+        let reports = std::cell::RefCell::new(Vec::new());
+        crate::parse_with_progress(text, "test", &|placed, total| {
+            reports.borrow_mut().push((placed, total))
+        })
+        .unwrap();
+        let reports = reports.into_inner();
+        assert!(reports.len() >= 2, "{reports:?}");
+        assert!(reports.windows(2).all(|w| w[0].0 <= w[1].0), "{reports:?}");
+        assert!(reports.iter().all(|&(_, total)| total == 20100));
+        assert_eq!(reports.last(), Some(&(20100, 20100)));
     }
 
     /// The particles placed are those of one try after another (a batch of one), whatever the

@@ -159,12 +159,24 @@ pub fn load(path: &Path) -> Result<AnyScene, SceneError> {
 
 /// Checks scene text; `origin` names it in errors (a path, or `preset:NAME`).
 pub fn parse(text: &str, origin: &str) -> Result<AnyScene, SceneError> {
+    parse_with_progress(text, origin, &|_, _| {})
+}
+
+/// [`parse`], telling `progress` how far the fills have come: `progress(placed, total)`
+/// with the particles placed so far and the scene's total, after each batch of random tries
+/// (or each 65,536 lattice sites) and once every fill is done. A fill of 10^6 spheres near
+/// the densest random packing takes seconds; a command line can show a progress bar.
+pub fn parse_with_progress(
+    text: &str,
+    origin: &str,
+    progress: &dyn Fn(u64, u64),
+) -> Result<AnyScene, SceneError> {
     let raw: RawScene = toml::from_str(text).map_err(|e| SceneError {
         origin: origin.to_string(),
         field: None,
         message: e.to_string().trim_end().to_string(),
     })?;
-    let ctx = Ctx { origin };
+    let ctx = Ctx { origin, progress };
     match raw.dimensions {
         2 => Ok(AnyScene::Two(build::<DVec2>(&ctx, raw)?)),
         3 => Ok(AnyScene::Three(build::<DVec3>(&ctx, raw)?)),
@@ -191,6 +203,8 @@ fn out_of_scale(value: f64) -> String {
 
 pub(crate) struct Ctx<'a> {
     pub origin: &'a str,
+    /// See [`parse_with_progress`].
+    pub progress: &'a dyn Fn(u64, u64),
 }
 
 impl Ctx<'_> {
