@@ -306,7 +306,7 @@ fn fill_one<V: Vector>(
     };
     let mut rng = Pcg64::seed_from_u64(seed);
     match f.arrangement {
-        RawArrangement::Random => place_random(ctx, i, &fill, &mut rng, placer, out),
+        RawArrangement::Random => place_random(ctx, i, &fill, &mut rng, placer, out, batch_size),
         RawArrangement::Lattice => place_lattice(ctx, i, &fill, &mut rng, placer, out),
     }
 }
@@ -320,6 +320,12 @@ const TRIES_PER_BATCH: usize = 65536;
 /// How many tries ahead of the one being placed the in-order part of a batch fetches what
 /// that try will read.
 const TRIES_AHEAD: usize = 8;
+
+/// Tries in a batch, once `placed` particles are placed: [`TRIES_PER_BATCH`], or half as many
+/// as are placed, up to [`MAX_TRIES_PER_BATCH`].
+fn batch_size(placed: usize) -> usize {
+    (placed / 2).clamp(TRIES_PER_BATCH, MAX_TRIES_PER_BATCH)
+}
 
 /// The most tries in a batch (each takes 8 D + 10 bytes of [`Screen`]).
 const MAX_TRIES_PER_BATCH: usize = 1 << 18;
@@ -341,21 +347,9 @@ const VELOCITY_STREAM_OFFSET: u128 = 1 << 100;
 /// independent); then, in order, each try that passed is checked against the particles placed
 /// earlier in the same batch alone (the recent ones), and placed. A try is placed exactly when
 /// it overlaps nothing placed before it, as one try after another would decide, for any batch
-/// size or thread count.
+/// size or thread count. `batch(particles placed so far)` says how many tries a batch draws
+/// ([`batch_size`]).
 fn place_random<V: Vector>(
-    ctx: &Ctx,
-    i: usize,
-    fill: &Fill<V>,
-    rng: &mut Pcg64,
-    placer: &mut Placer<V>,
-    out: &mut Particles<V>,
-) -> Result<(), SceneError> {
-    let batch = |placed: usize| (placed / 2).clamp(TRIES_PER_BATCH, MAX_TRIES_PER_BATCH);
-    place_random_in_batches(ctx, i, fill, rng, placer, out, batch)
-}
-
-/// [`place_random`] with `batch(particles placed so far)` tries checked together.
-fn place_random_in_batches<V: Vector>(
     ctx: &Ctx,
     i: usize,
     fill: &Fill<V>,
@@ -572,8 +566,7 @@ mod tests {
                 region,
             };
             let mut rng = Pcg64::seed_from_u64(11 + i as u64);
-            place_random_in_batches(&ctx, i, &fill, &mut rng, &mut placer, &mut out, |_| batch)
-                .unwrap();
+            place_random(&ctx, i, &fill, &mut rng, &mut placer, &mut out, |_| batch).unwrap();
         }
         out
     }
