@@ -47,7 +47,7 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<AnyScene, carom_scene::Sc
     let bar = std::cell::OnceCell::new();
     let parsed = carom_scene::parse_with_progress(text, origin, &|placed, total| {
         if total >= FILL_PROGRESS_FROM {
-            bar.get_or_init(|| fill_progress_bar(total))
+            bar.get_or_init(|| crate::driver::counting_bar(total, "placing particles"))
                 .set_position(placed);
         }
     });
@@ -61,17 +61,6 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<AnyScene, carom_scene::Sc
 /// draws nothing when standard error is not one). A fill of 10^6 spheres near the densest
 /// random packing takes seconds.
 const FILL_PROGRESS_FROM: u64 = 100_000;
-
-fn fill_progress_bar(total: u64) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(total);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} placing particles {pos}/{len} {wide_bar} {eta} left",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    bar
-}
 
 /// The most worker threads, and thread ranks, a command may start: 8 per core, and at least
 /// 64 on any machine. Results are the same for every count; more threads than cores only wait

@@ -185,22 +185,20 @@ impl<V: Vector> Placer<V> {
     /// True when a particle of `radius` at `x` would overlap a settled one (see
     /// [`PlacementGrid`]), across the seams too.
     fn overlaps_settled(&self, x: V, radius: f64) -> bool {
-        match &self.seams {
-            None => self.grid.overlaps_settled(x, radius),
-            Some((p, d)) => self.grid.across_seams(p, d, x, radius, |image| {
-                self.grid.overlaps_settled(image, radius)
-            }),
-        }
+        self.across_seams(x, radius, |x| self.grid.overlaps_settled(x, radius))
     }
 
     /// True when a particle of `radius` at `x` would overlap a recent one (see
     /// [`PlacementGrid`]), across the seams too.
     fn overlaps_recent(&self, x: V, radius: f64) -> bool {
+        self.across_seams(x, radius, |x| self.grid.overlaps_recent(x, radius))
+    }
+
+    /// `test` of `x`, and of its images across the seams when there are any.
+    fn across_seams(&self, x: V, radius: f64, test: impl Fn(V) -> bool) -> bool {
         match &self.seams {
-            None => self.grid.overlaps_recent(x, radius),
-            Some((p, d)) => self.grid.across_seams(p, d, x, radius, |image| {
-                self.grid.overlaps_recent(image, radius)
-            }),
+            None => test(x),
+            Some((p, d)) => self.grid.across_seams(p, d, x, radius, test),
         }
     }
 
@@ -317,10 +315,6 @@ fn fill_one<V: Vector>(
 /// of 1 places the same ones.
 const TRIES_PER_BATCH: usize = 65536;
 
-/// How many tries ahead of the one being placed the in-order part of a batch fetches what
-/// that try will read.
-const TRIES_AHEAD: usize = 8;
-
 /// Tries in a batch, once `placed` particles are placed: [`TRIES_PER_BATCH`], or half as many
 /// as are placed, up to [`MAX_TRIES_PER_BATCH`].
 fn batch_size(placed: usize) -> usize {
@@ -379,13 +373,7 @@ fn place_random<V: Vector>(
         }
         placer.grid.settle();
         screen.check(placer, radius);
-        for (k, (&x, &refused)) in screen.tries.iter().zip(&screen.refused).enumerate() {
-            // (what the check and the placement of a try a few ahead will read, fetched now)
-            if screen.refused.get(k + TRIES_AHEAD) == Some(&false) {
-                placer
-                    .grid
-                    .prefetch_recent(screen.tries[k + TRIES_AHEAD], radius);
-            }
+        for (&x, &refused) in screen.tries.iter().zip(&screen.refused) {
             attempts += 1;
             if refused || placer.overlaps_recent(x, radius) {
                 continue;

@@ -8,9 +8,11 @@
 //! bit per cell says which cells hold any, so a check against them alone reads a bit for most
 //! cells. `settle` merges the recent ones into the settled, in place.
 //!
-//! Cells are at least one largest diameter wide, so every particle that can touch a new one
-//! lies in the 3^D cells around it (up to 4 per axis, with the reach widened past rounding).
+//! The cells are the engine's grid layout ([`GridLayout`]), at least one largest diameter
+//! wide, so every particle that can touch a new one lies in the 3^D cells around it (up to 4
+//! per axis, with the reach widened past rounding).
 
+use carom_engine::grid::GridLayout;
 use carom_engine::{Aabb, Periodic, Vector};
 
 /// A placed particle: centre and radius.
@@ -48,10 +50,8 @@ const TRIES_IN_STEP: usize = 8;
 
 /// The settled and recent particles of a fill, on a grid of cells.
 pub(crate) struct PlacementGrid<V> {
-    origin: [f64; 3],
-    inverse_cell: f64,
+    layout: GridLayout,
     max_radius: f64,
-    dims: [usize; 3],
     /// Cell `c`'s settled particles are `settled[starts[c]..starts[c + 1]]`.
     starts: Vec<u32>,
     settled: Vec<Disc<V>>,
@@ -63,38 +63,15 @@ pub(crate) struct PlacementGrid<V> {
 }
 
 impl<V: Vector> PlacementGrid<V> {
-    /// A grid over `bounds` for `capacity` particles of radius at most `max_radius`.
+    /// A grid over `bounds` for `capacity` particles of radius at most `max_radius`: the
+    /// engine's grid layout, cells about one largest diameter wide, never more than ~4 per
+    /// particle (coarser cells stay correct, just slower).
     pub(crate) fn new(bounds: Aabb<V>, max_radius: f64, capacity: usize) -> Self {
-        let mut cell = 2.0 * max_radius;
-        let extent: Vec<f64> = (0..V::DIM)
-            .map(|a| bounds.max.get(a) - bounds.min.get(a))
-            .collect();
-        // Never more than ~4 cells per particle: coarser cells stay correct, just slower.
-        let limit = (4 * capacity + 1024) as f64;
-        let count = |cell: f64| {
-            extent
-                .iter()
-                .map(|e| (e / cell).floor() + 1.0)
-                .product::<f64>()
-        };
-        if count(cell) > limit {
-            cell *= (count(cell) / limit).powf(1.0 / V::DIM as f64) * 1.01;
-            while count(cell) > limit {
-                cell *= 1.1;
-            }
-        }
-        let mut dims = [1usize; 3];
-        let mut origin = [0.0; 3];
-        for a in 0..V::DIM {
-            dims[a] = (extent[a] / cell).floor() as usize + 1;
-            origin[a] = bounds.min.get(a);
-        }
-        let cells: usize = dims.iter().product();
+        let layout = GridLayout::fit(&bounds, max_radius, None, (4 * capacity + 1024) as f64);
+        let cells = layout.total();
         Self {
-            origin,
-            inverse_cell: 1.0 / cell,
+            layout,
             max_radius,
-            dims,
             starts: vec![0; cells + 1],
             settled: Vec::with_capacity(capacity),
             head: vec![EMPTY; cells],
@@ -105,23 +82,7 @@ impl<V: Vector> PlacementGrid<V> {
 
     /// The cell holding `x`, as a linear index.
     pub(crate) fn cell_of(&self, x: V) -> usize {
-        let mut c = [0usize; 3];
-        for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
-            *slot = self.axis_cell(a, x.get(a));
-        }
-        self.linear(c)
-    }
-
-    fn linear(&self, c: [usize; 3]) -> usize {
-        (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
-    }
-
-    /// The cell holding `coordinate` on `axis`, clamped to the grid: `floor` of the scaled
-    /// coordinate, as truncation (the same for `t >= 0`; anything below clamps to 0, and a
-    /// NaN, which `as` turns into 0, too) so the hot loop makes no libm call.
-    fn axis_cell(&self, axis: usize, coordinate: f64) -> usize {
-        let t = (coordinate - self.origin[axis]) * self.inverse_cell;
-        (t as i64).clamp(0, self.dims[axis] as i64 - 1) as usize
+        self.layout.linear(self.layout.cell_coords(x))
     }
 
     /// Adds a recent particle at `centre`.
@@ -194,16 +155,13 @@ impl<V: Vector> PlacementGrid<V> {
     }
 
     /// The first and last cell per axis that can hold a particle touching one of `radius` at
-    /// `x`: within reach, widened past rounding (see carom_engine::grid).
+    /// `x`: within reach, widened past rounding (see [`GridLayout::axis_range`]).
     fn cell_range(&self, x: V, radius: f64) -> CellRange {
         let reach = radius + self.max_radius;
         let mut lo = [0usize; 3];
         let mut hi = [0usize; 3];
         for a in 0..V::DIM {
-            let c = x.get(a);
-            let widened = carom_engine::grid::widened_reach(c, reach);
-            lo[a] = self.axis_cell(a, c - widened);
-            hi[a] = self.axis_cell(a, c + widened);
+            (lo[a], hi[a]) = self.layout.axis_range(a, x.get(a), reach);
         }
         (lo, hi)
     }
@@ -211,7 +169,7 @@ impl<V: Vector> PlacementGrid<V> {
     /// The settled particles of one row of cells of `range`: a row's cells are contiguous.
     #[inline]
     fn settled_row(&self, (lo, hi): CellRange, y: usize, z: usize) -> &[Disc<V>] {
-        let row = self.linear([0, y, z]);
+        let row = self.layout.linear([0, y, z]);
         let (first, last) = (self.starts[row + lo[0]], self.starts[row + hi[0] + 1]);
         &self.settled[first as usize..last as usize]
     }
@@ -234,7 +192,7 @@ impl<V: Vector> PlacementGrid<V> {
         let (lo, hi) = self.cell_range(x, radius);
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
-                let row = self.linear([0, y, z]);
+                let row = self.layout.linear([0, y, z]);
                 for cell in row + lo[0]..=row + hi[0] {
                     if self.marks[cell / 64] & (1u64 << (cell % 64)) == 0 {
                         continue;
@@ -251,19 +209,6 @@ impl<V: Vector> PlacementGrid<V> {
             }
         }
         false
-    }
-
-    /// Asks the processor to fetch what [`PlacementGrid::overlaps_recent`] and
-    /// [`PlacementGrid::insert`] will read for a particle of `radius` at `x`: the marks of
-    /// its cells and the head of its own. Changes nothing.
-    pub(crate) fn prefetch_recent(&self, x: V, radius: f64) {
-        let (lo, hi) = self.cell_range(x, radius);
-        for z in lo[2]..=hi[2] {
-            for y in lo[1]..=hi[1] {
-                prefetch(&self.marks[self.linear([lo[0], y, z]) / 64]);
-            }
-        }
-        prefetch(&self.head[self.cell_of(x)]);
     }
 
     /// [`PlacementGrid::overlaps_settled`] of each of `tries` (no recent particles may
@@ -288,7 +233,7 @@ impl<V: Vector> PlacementGrid<V> {
                 let (lo, hi) = *range;
                 for z in lo[2]..=hi[2] {
                     for y in lo[1]..=hi[1] {
-                        prefetch(&self.starts[self.linear([lo[0], y, z])]);
+                        prefetch(&self.starts[self.layout.linear([lo[0], y, z])]);
                     }
                 }
             }

@@ -15,10 +15,17 @@ use step::Driven;
 
 /// The step progress bar (drawn only on a terminal).
 pub fn progress_bar(steps: u64) -> ProgressBar {
-    let progress = ProgressBar::new(steps);
+    counting_bar(steps, "step")
+}
+
+/// A bar counting `len` things (`{counting} {pos}/{len}`), drawn only on a terminal.
+pub fn counting_bar(len: u64, counting: &str) -> ProgressBar {
+    let progress = ProgressBar::new(len);
     progress.set_style(
-        ProgressStyle::with_template("{spinner} step {pos}/{len} {wide_bar} {eta} left")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template(&format!(
+            "{{spinner}} {counting} {{pos}}/{{len}} {{wide_bar}} {{eta}} left"
+        ))
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     progress
 }
