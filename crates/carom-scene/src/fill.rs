@@ -3,12 +3,12 @@
 
 use crate::placement::PlacementGrid;
 use crate::raw::{RawArrangement, RawFill, RawScene};
+use crate::screen::Screen;
 use crate::walls::Walled;
 use crate::{Ctx, SceneError};
 use carom_engine::{Aabb, Particles, Periodic, Vector};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use rayon::prelude::*;
 
 /// What one particle costs while a scene is built and run (engine arrays, grid, contacts and
 /// the placement hash), used to refuse fills that cannot fit in memory before trying.
@@ -51,10 +51,12 @@ pub(crate) fn particles<V: Vector>(
         seams: periodic.zip(domain),
         total,
     };
-    for (&x, &r) in out.positions().iter().zip(out.radii()) {
-        placer.grid.insert(x, r);
-    }
-    placer.grid.settle();
+    placer.grid.add(
+        out.positions()
+            .iter()
+            .copied()
+            .zip(out.radii().iter().copied()),
+    );
     for (i, f) in raw.fill.iter().enumerate() {
         fill_one(ctx, i, f, regions[i], &mut placer, &mut out)?;
     }
@@ -169,41 +171,34 @@ fn regions<V: Vector>(
 
 /// Where particles have been placed so far, and the seams to look across (periodic axes of
 /// the domain).
-struct Placer<V> {
-    grid: PlacementGrid<V>,
+pub(crate) struct Placer<V> {
+    pub grid: PlacementGrid<V>,
     seams: Option<(Periodic, Aabb<V>)>,
     /// The scene's particles in all, for progress reports.
     total: u64,
 }
 
 impl<V: Vector> Placer<V> {
-    /// `x` wrapped into the domain on its periodic axes.
-    fn wrap(&self, x: V) -> V {
-        self.seams.map_or(x, |(p, _)| p.wrap(x))
-    }
-
-    /// True when a particle of `radius` at `x` would overlap a settled one (see
+    /// True when a particle of `radius` at `x` would overlap a placed one (see
     /// [`PlacementGrid`]), across the seams too.
     fn overlaps_settled(&self, x: V, radius: f64) -> bool {
         self.across_seams(x, radius, |x| self.grid.overlaps_settled(x, radius))
     }
 
-    /// True when a particle of `radius` at `x` would overlap a recent one (see
-    /// [`PlacementGrid`]), across the seams too.
-    fn overlaps_recent(&self, x: V, radius: f64) -> bool {
-        self.across_seams(x, radius, |x| self.grid.overlaps_recent(x, radius))
-    }
-
-    /// `test` of `x`, and of its images across the seams when there are any.
-    fn across_seams(&self, x: V, radius: f64, test: impl Fn(V) -> bool) -> bool {
+    /// `test` of `x`, and of its images across the seams when there are any, until one says
+    /// true.
+    pub fn across_seams(&self, x: V, radius: f64, test: impl FnMut(V) -> bool) -> bool {
         match &self.seams {
-            None => test(x),
+            None => {
+                let mut test = test;
+                test(x)
+            }
             Some((p, d)) => self.grid.across_seams(p, d, x, radius, test),
         }
     }
 
-    /// For each of `tries`, whether a particle of `radius` there would overlap a settled one.
-    fn refusals(&self, tries: impl Iterator<Item = V>, radius: f64, refused: &mut [bool]) {
+    /// For each of `tries`, whether a particle of `radius` there would overlap a placed one.
+    pub fn refusals(&self, tries: impl Iterator<Item = V>, radius: f64, refused: &mut [bool]) {
         match &self.seams {
             None => self.grid.refusals(tries, radius, refused),
             Some(_) => {
@@ -212,20 +207,6 @@ impl<V: Vector> Placer<V> {
                 }
             }
         }
-    }
-
-    /// Pushes a particle into `out` and the grid.
-    fn place(
-        &mut self,
-        ctx: &Ctx,
-        i: usize,
-        out: &mut Particles<V>,
-        (x, v, radius, mass): (V, V, f64, f64),
-    ) -> Result<(), SceneError> {
-        out.push(x, v, radius, mass)
-            .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
-        self.grid.insert(x, radius);
-        Ok(())
     }
 }
 
@@ -321,11 +302,8 @@ fn batch_size(placed: usize) -> usize {
     (placed / 2).clamp(TRIES_PER_BATCH, MAX_TRIES_PER_BATCH)
 }
 
-/// The most tries in a batch (each takes 8 D + 10 bytes of [`Screen`]).
+/// The most tries in a batch (each takes 9 D + 26 bytes of [`Screen`]).
 const MAX_TRIES_PER_BATCH: usize = 1 << 18;
-
-/// Tries per task of a batch's check on the thread pool.
-const TRIES_PER_TASK: usize = 512;
 
 /// How far along the fill's random stream its velocities are drawn: the positions of the tries
 /// come from the start of the stream and the velocities from here, so a try's position does
@@ -333,15 +311,8 @@ const TRIES_PER_TASK: usize = 512;
 const VELOCITY_STREAM_OFFSET: u128 = 1 << 100;
 
 /// Random positions over the region (less a radius), each kept if it overlaps nothing placed
-/// before it: random sequential adsorption, try after try.
-///
-/// The tries are checked in batches. Every try of a batch is first checked against the
-/// particles placed before the batch (the settled ones of [`PlacementGrid`]), on the thread
-/// pool and in the order of their cells (the grid is only read, and the tries are
-/// independent); then, in order, each try that passed is checked against the particles placed
-/// earlier in the same batch alone (the recent ones), and placed. A try is placed exactly when
-/// it overlaps nothing placed before it, as one try after another would decide, for any batch
-/// size or thread count. `batch(particles placed so far)` says how many tries a batch draws
+/// before it: random sequential adsorption, try after try, decided in batches (see
+/// [`place_in_batches`]). `batch(particles placed so far)` says how many tries a batch draws
 /// ([`batch_size`]).
 fn place_random<V: Vector>(
     ctx: &Ctx,
@@ -360,34 +331,22 @@ fn place_random<V: Vector>(
     let mut velocities = rng.clone();
     velocities.advance(VELOCITY_STREAM_OFFSET);
     let mut attempts = 0u64;
-    let mut screen = Screen::default();
-    while attempts < budget {
-        screen.tries.clear();
-        let size = (batch(out.len()).max(1) as u64).min(budget - attempts) as usize;
+    let seams = placer.seams;
+    let draw = |tries: &mut Vec<V>, placed: usize| {
+        let size = (batch(placed).max(1) as u64).min(budget - attempts);
+        attempts += size;
         for _ in 0..size {
             let mut c = [0.0; 3];
             for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
                 *slot = lo.get(a) + span.get(a) * rng.random::<f64>();
             }
-            screen.tries.push(placer.wrap(V::from_slice(&c)));
+            let x = V::from_slice(&c);
+            tries.push(seams.map_or(x, |(p, _)| p.wrap(x)));
         }
-        placer.grid.settle();
-        screen.check(placer, radius);
-        for (&x, &refused) in screen.tries.iter().zip(&screen.refused) {
-            attempts += 1;
-            if refused || placer.overlaps_recent(x, radius) {
-                continue;
-            }
-            let v = fill.velocity(&mut velocities);
-            placer.place(ctx, i, out, (x, v, radius, fill.mass))?;
-            if (out.len() - start) as u64 == count {
-                placer.grid.settle();
-                return Ok(());
-            }
-        }
-        (ctx.progress)(out.len() as u64, placer.total);
+    };
+    if place_in_batches(ctx, i, fill, placer, out, &mut velocities, draw)? {
+        return Ok(());
     }
-    placer.grid.settle();
     Err(ctx.err(
         format!("fill[{i}].count"),
         format!(
@@ -398,47 +357,47 @@ fn place_random<V: Vector>(
     ))
 }
 
-/// A batch of random tries and their check against the particles placed before the batch,
-/// with the check's scratch (kept from batch to batch).
-#[derive(Default)]
-struct Screen<V> {
-    tries: Vec<V>,
-    /// Whether each try overlaps a particle placed before the batch.
-    refused: Vec<bool>,
-    /// Each try's cell (high half) and index (low half), sorted.
-    by_cell: Vec<u64>,
-    /// Whether each try in that order is refused.
-    sorted_refused: Vec<bool>,
-}
-
-impl<V: Vector> Screen<V> {
-    /// Fills `refused` for a particle of `radius` at each try, on the thread pool. The tries
-    /// are checked in the order of their cells, so that tries checked one after another read
-    /// neighbouring cells, which lie next to each other in memory.
-    fn check(&mut self, placer: &Placer<V>, radius: f64) {
-        let grid = &placer.grid;
-        self.by_cell.clear();
-        self.by_cell.extend(
-            self.tries
-                .iter()
-                .enumerate()
-                .map(|(k, &x)| ((grid.cell_of(x) as u64) << 32) | k as u64),
-        );
-        self.by_cell.par_sort_unstable();
-        let index = |key: u64| (key & u64::from(u32::MAX)) as usize;
-        self.sorted_refused.clear();
-        self.sorted_refused.resize(self.tries.len(), false);
-        let tries = &self.tries;
-        self.by_cell
-            .par_chunks(TRIES_PER_TASK)
-            .zip(self.sorted_refused.par_chunks_mut(TRIES_PER_TASK))
-            .for_each(|(keys, refused)| {
-                placer.refusals(keys.iter().map(|&key| tries[index(key)]), radius, refused)
-            });
-        self.refused.clear();
-        self.refused.resize(self.tries.len(), false);
-        for (&key, &refused) in self.by_cell.iter().zip(&self.sorted_refused) {
-            self.refused[index(key)] = refused;
+/// Places the tries that `draw(tries, particles placed so far)` pushes, batch after batch,
+/// until the fill has its count (true) or `draw` pushes none (false). A try is placed exactly
+/// when it overlaps nothing placed before it, as one try after another would decide, for any
+/// batch size or thread count (see [`Screen`]); each placed try takes the next velocity of
+/// `velocities`.
+fn place_in_batches<V: Vector>(
+    ctx: &Ctx,
+    i: usize,
+    fill: &Fill<V>,
+    placer: &mut Placer<V>,
+    out: &mut Particles<V>,
+    velocities: &mut Pcg64,
+    mut draw: impl FnMut(&mut Vec<V>, usize),
+) -> Result<bool, SceneError> {
+    let (count, radius) = (fill.count, fill.radius);
+    let start = out.len();
+    let mut screen = Screen::default();
+    loop {
+        screen.tries.clear();
+        draw(&mut screen.tries, out.len());
+        if screen.tries.is_empty() {
+            return Ok(false);
+        }
+        screen.decide(placer, radius);
+        let mut end = screen.tries.len();
+        for (k, (&x, _)) in (screen.tries.iter().zip(&screen.placed))
+            .enumerate()
+            .filter(|(_, (_, &placed))| placed)
+        {
+            let v = fill.velocity(velocities);
+            out.push(x, v, radius, fill.mass)
+                .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
+            if (out.len() - start) as u64 == count {
+                end = k + 1;
+                break;
+            }
+        }
+        screen.settle(&mut placer.grid, end, radius);
+        (ctx.progress)(out.len() as u64, placer.total);
+        if (out.len() - start) as u64 == count {
+            return Ok(true);
         }
     }
 }
@@ -463,44 +422,40 @@ fn place_lattice<V: Vector>(
     for (a, n) in per_axis.iter_mut().enumerate().take(V::DIM) {
         *n = (span.get(a) / spacing).floor() as usize + 1;
     }
+    let seams = placer.seams;
     let mut site = [0usize; 3];
-    while ((out.len() - start) as u64) < count {
-        if site[V::DIM - 1] >= per_axis[V::DIM - 1] {
-            return Err(ctx.err(
-                format!("fill[{i}].count"),
-                format!(
-                    "the lattice holds only {} of {count} particles in the region",
-                    out.len() - start
-                ),
-            ));
-        }
-        let mut c = [0.0; 3];
-        for a in 0..V::DIM {
-            c[a] = lo.get(a) + spacing * site[a] as f64;
-        }
-        // next site, x fastest
-        for a in 0..V::DIM {
-            site[a] += 1;
-            if site[a] < per_axis[a] || a == V::DIM - 1 {
-                break;
+    let draw = |tries: &mut Vec<V>, _: usize| {
+        while tries.len() < LATTICE_SITES_PER_BATCH && site[V::DIM - 1] < per_axis[V::DIM - 1] {
+            let mut c = [0.0; 3];
+            for a in 0..V::DIM {
+                c[a] = lo.get(a) + spacing * site[a] as f64;
             }
-            site[a] = 0;
+            // next site, x fastest
+            for a in 0..V::DIM {
+                site[a] += 1;
+                if site[a] < per_axis[a] || a == V::DIM - 1 {
+                    break;
+                }
+                site[a] = 0;
+            }
+            let x = V::from_slice(&c);
+            tries.push(seams.map_or(x, |(p, _)| p.wrap(x)));
         }
-        let x = placer.wrap(V::from_slice(&c));
-        if placer.overlaps_settled(x, radius) || placer.overlaps_recent(x, radius) {
-            continue;
-        }
-        let v = fill.velocity(rng);
-        placer.place(ctx, i, out, (x, v, radius, fill.mass))?;
-        if out.len() % LATTICE_SITES_PER_REPORT == 0 {
-            (ctx.progress)(out.len() as u64, placer.total);
-        }
+    };
+    if place_in_batches(ctx, i, fill, placer, out, rng, draw)? {
+        return Ok(());
     }
-    Ok(())
+    Err(ctx.err(
+        format!("fill[{i}].count"),
+        format!(
+            "the lattice holds only {} of {count} particles in the region",
+            out.len() - start
+        ),
+    ))
 }
 
-/// Lattice particles placed between two progress reports.
-const LATTICE_SITES_PER_REPORT: usize = 65536;
+/// Lattice sites decided together (see [`place_in_batches`]).
+const LATTICE_SITES_PER_BATCH: usize = 65536;
 
 const GIB: f64 = (1u64 << 30) as f64;
 

@@ -11,6 +11,7 @@ pub mod machine;
 mod placement;
 mod presets;
 mod raw;
+mod screen;
 mod walls;
 
 pub use error::SceneError;

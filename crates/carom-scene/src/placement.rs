@@ -1,12 +1,12 @@
 //! Where a fill has placed its particles, for the overlap checks of the tries still to come.
 //!
-//! Two parts. The *settled* particles (all placed before the current batch of tries) lie in
-//! cell order, each cell's run of them found by a start offset (a counting sort's layout): a
-//! batch's tries, checked in the order of their cells, then read the settled particles nearly
-//! in the order they lie in memory, instead of one cache miss after another. The *recent*
-//! particles (placed since the last [`PlacementGrid::settle`]) hang off per-cell lists, and a
-//! bit per cell says which cells hold any, so a check against them alone reads a bit for most
-//! cells. `settle` merges the recent ones into the settled, in place.
+//! The placed particles lie in cell order, each cell's run of them found by a start offset (a
+//! counting sort's layout): a batch's tries, checked in the order of their cells, then read
+//! them nearly in the order they lie in memory, instead of one cache miss after another.
+//! [`PlacementGrid::merge`] adds a batch's particles (sorted by cell) in place. While a batch is
+//! decided, the grid also indexes the batch's own *survivors* (the tries that overlap nothing
+//! placed before the batch, in cell order) by their first in each cell, so that each can be
+//! checked against the survivors around it (see [`crate::screen`]).
 //!
 //! The cells are the engine's grid layout ([`GridLayout`]), at least one largest diameter
 //! wide, so every particle that can touch a new one lies in the 3^D cells around it (up to 4
@@ -17,25 +17,18 @@ use carom_engine::{Aabb, Periodic, Vector};
 
 /// A placed particle: centre and radius.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Disc<V> {
-    centre: V,
-    radius: f64,
+pub(crate) struct Disc<V> {
+    pub centre: V,
+    pub radius: f64,
 }
 
 impl<V: Vector> Disc<V> {
+    /// True when a particle of `radius` at `x` would overlap this one.
     #[inline]
-    fn overlaps(&self, x: V, radius: f64) -> bool {
+    pub fn overlaps(&self, x: V, radius: f64) -> bool {
         let reach = radius + self.radius;
         (self.centre - x).length_squared() < reach * reach
     }
-}
-
-/// A recent particle: its disc, its cell, and the particle placed before it in that cell.
-#[derive(Clone, Copy)]
-struct Recent<V> {
-    disc: Disc<V>,
-    cell: u32,
-    next: u32,
 }
 
 const EMPTY: u32 = u32::MAX;
@@ -44,22 +37,22 @@ const EMPTY: u32 = u32::MAX;
 type CellRange = ([usize; 3], [usize; 3]);
 
 /// Tries checked in step by [`PlacementGrid::refusals`]: the cell starts of all of them are
-/// fetched, then the first settled particle of each of their rows of cells, then they are
+/// fetched, then the first placed particle of each of their rows of cells, then they are
 /// tested, so that the cache misses of several tries are in flight together.
 const TRIES_IN_STEP: usize = 8;
 
-/// The settled and recent particles of a fill, on a grid of cells.
+/// The placed particles of a fill, on a grid of cells.
 pub(crate) struct PlacementGrid<V> {
     layout: GridLayout,
     max_radius: f64,
-    /// Cell `c`'s settled particles are `settled[starts[c]..starts[c + 1]]`.
+    /// Cell `c`'s placed particles are `settled[starts[c]..starts[c + 1]]`.
     starts: Vec<u32>,
     settled: Vec<Disc<V>>,
-    /// Per cell, its latest recent particle (an index into `recent`), or [`EMPTY`].
-    head: Vec<u32>,
-    recent: Vec<Recent<V>>,
-    /// One bit per cell: set for the cells that hold a recent particle.
-    marks: Vec<u64>,
+    /// Per cell, the first survivor of the batch being decided in it (an index into the
+    /// survivors, which lie in cell order), or [`EMPTY`]; all [`EMPTY`] between batches.
+    first_survivor: Vec<u32>,
+    /// Scratch of [`PlacementGrid::add`].
+    sorted: Vec<(u32, Disc<V>)>,
 }
 
 impl<V: Vector> PlacementGrid<V> {
@@ -74,53 +67,45 @@ impl<V: Vector> PlacementGrid<V> {
             max_radius,
             starts: vec![0; cells + 1],
             settled: Vec::with_capacity(capacity),
-            head: vec![EMPTY; cells],
-            recent: Vec::new(),
-            marks: vec![0; cells.div_ceil(64)],
+            first_survivor: vec![EMPTY; cells],
+            sorted: Vec::new(),
         }
     }
 
     /// The cell holding `x`, as a linear index.
-    pub(crate) fn cell_of(&self, x: V) -> usize {
-        self.layout.linear(self.layout.cell_coords(x))
+    pub(crate) fn cell_of(&self, x: V) -> u32 {
+        self.layout.linear(self.layout.cell_coords(x)) as u32
     }
 
-    /// Adds a recent particle at `centre`.
-    pub(crate) fn insert(&mut self, centre: V, radius: f64) {
-        let cell = self.cell_of(centre);
-        self.recent.push(Recent {
-            disc: Disc { centre, radius },
-            cell: cell as u32,
-            next: self.head[cell],
-        });
-        self.head[cell] = (self.recent.len() - 1) as u32;
-        self.marks[cell / 64] |= 1u64 << (cell % 64);
+    /// Places `particles` (centre, radius), in any order.
+    pub(crate) fn add(&mut self, particles: impl Iterator<Item = (V, f64)>) {
+        let mut sorted = std::mem::take(&mut self.sorted);
+        sorted.clear();
+        sorted.extend(
+            particles.map(|(centre, radius)| (self.cell_of(centre), Disc { centre, radius })),
+        );
+        // (stable: a cell's particles keep their order)
+        sorted.sort_by_key(|&(cell, _)| cell);
+        self.merge(&sorted);
+        self.sorted = sorted;
     }
 
-    /// Makes every recent particle settled: merges them (sorted by cell) into the settled
-    /// ones, in place, from the last cell back, each run of settled particles moving once.
-    pub(crate) fn settle(&mut self) {
-        if self.recent.is_empty() {
+    /// Places `added` (each with its cell, sorted by cell), merging them into the placed
+    /// ones in place, from the last cell back, each run of placed particles moving once.
+    pub(crate) fn merge(&mut self, added: &[(u32, Disc<V>)]) {
+        let Some(&(_, placeholder)) = added.first() else {
             return;
-        }
-        let mut keys: Vec<u64> = self
-            .recent
-            .iter()
-            .enumerate()
-            .map(|(k, r)| (u64::from(r.cell) << 32) | k as u64)
-            .collect();
-        keys.sort_unstable();
-        let (old, added) = (self.settled.len(), self.recent.len());
-        let placeholder = self.recent[0].disc;
-        self.settled.resize(old + added, placeholder);
-        let cells = self.head.len();
-        self.starts[cells] = (old + added) as u32;
-        // `shift`: the recent particles not yet placed, all in cells up to the current one;
-        // cells above it, up to `upper`, hold settled particles alone, which move by `shift`.
-        let (mut shift, mut upper, mut upper_old_start) = (added, cells, old);
-        let mut left = added;
+        };
+        let (old, count) = (self.settled.len(), added.len());
+        self.settled.resize(old + count, placeholder);
+        let cells = self.first_survivor.len();
+        self.starts[cells] = (old + count) as u32;
+        // `shift`: the added particles not yet placed, all in cells up to the current one;
+        // cells above it, up to `upper`, hold old particles alone, which move by `shift`.
+        let (mut shift, mut upper, mut upper_old_start) = (count, cells, old);
+        let mut left = count;
         while left > 0 {
-            let cell = (keys[left - 1] >> 32) as usize;
+            let cell = added[left - 1].0 as usize;
             let block_start = if cell + 1 < upper {
                 self.starts[cell + 1] as usize
             } else {
@@ -132,26 +117,21 @@ impl<V: Vector> PlacementGrid<V> {
                 *start += shift as u32;
             }
             let mut in_cell = 0;
-            while left > 0 && (keys[left - 1] >> 32) as usize == cell {
+            while left > 0 && added[left - 1].0 as usize == cell {
                 left -= 1;
                 in_cell += 1;
             }
             let end = block_start + shift;
-            for (slot, &key) in self.settled[end - in_cell..end]
+            for (slot, (_, disc)) in self.settled[end - in_cell..end]
                 .iter_mut()
-                .zip(&keys[left..left + in_cell])
+                .zip(&added[left..left + in_cell])
             {
-                *slot = self.recent[(key & u64::from(u32::MAX)) as usize].disc;
+                *slot = *disc;
             }
             shift -= in_cell;
             upper = cell + 1;
             upper_old_start = block_start;
         }
-        for r in &self.recent {
-            self.head[r.cell as usize] = EMPTY;
-            self.marks[r.cell as usize / 64] = 0;
-        }
-        self.recent.clear();
     }
 
     /// The first and last cell per axis that can hold a particle touching one of `radius` at
@@ -166,7 +146,7 @@ impl<V: Vector> PlacementGrid<V> {
         (lo, hi)
     }
 
-    /// The settled particles of one row of cells of `range`: a row's cells are contiguous.
+    /// The placed particles of one row of cells of `range`: a row's cells are contiguous.
     #[inline]
     fn settled_row(&self, (lo, hi): CellRange, y: usize, z: usize) -> &[Disc<V>] {
         let row = self.layout.linear([0, y, z]);
@@ -174,7 +154,7 @@ impl<V: Vector> PlacementGrid<V> {
         &self.settled[first as usize..last as usize]
     }
 
-    /// True when a particle of `radius` at `x` would overlap a settled one.
+    /// True when a particle of `radius` at `x` would overlap a placed one.
     pub(crate) fn overlaps_settled(&self, x: V, radius: f64) -> bool {
         let range = self.cell_range(x, radius);
         let (lo, hi) = range;
@@ -187,40 +167,56 @@ impl<V: Vector> PlacementGrid<V> {
         })
     }
 
-    /// True when a particle of `radius` at `x` would overlap a recent one.
-    pub(crate) fn overlaps_recent(&self, x: V, radius: f64) -> bool {
+    /// Indexes a batch's survivors, whose cells are `cells` (sorted), by the first in each
+    /// cell, until [`PlacementGrid::forget_survivors`].
+    pub(crate) fn index_survivors(&mut self, cells: &[u32]) {
+        for (k, &cell) in cells.iter().enumerate() {
+            if k == 0 || cells[k - 1] != cell {
+                self.first_survivor[cell as usize] = k as u32;
+            }
+        }
+    }
+
+    /// Undoes [`PlacementGrid::index_survivors`] of `cells`.
+    pub(crate) fn forget_survivors(&mut self, cells: &[u32]) {
+        for &cell in cells {
+            self.first_survivor[cell as usize] = EMPTY;
+        }
+    }
+
+    /// Calls `visit(k)` for every survivor `k` (see [`PlacementGrid::index_survivors`], with
+    /// the same `cells`) in a cell that can hold a particle touching one of `radius` at `x`.
+    #[inline]
+    pub(crate) fn survivors_near(
+        &self,
+        x: V,
+        radius: f64,
+        cells: &[u32],
+        mut visit: impl FnMut(usize),
+    ) {
         let (lo, hi) = self.cell_range(x, radius);
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
                 let row = self.layout.linear([0, y, z]);
                 for cell in row + lo[0]..=row + hi[0] {
-                    if self.marks[cell / 64] & (1u64 << (cell % 64)) == 0 {
-                        continue;
-                    }
-                    let mut j = self.head[cell];
-                    while j != EMPTY {
-                        let r = &self.recent[j as usize];
-                        if r.disc.overlaps(x, radius) {
-                            return true;
-                        }
-                        j = r.next;
+                    let mut k = self.first_survivor[cell] as usize;
+                    while k < cells.len() && cells[k] as usize == cell {
+                        visit(k);
+                        k += 1;
                     }
                 }
             }
         }
-        false
     }
 
-    /// [`PlacementGrid::overlaps_settled`] of each of `tries` (no recent particles may
-    /// exist), [`TRIES_IN_STEP`] at a time in stages: the same answers, with the misses of
-    /// several tries overlapping.
+    /// [`PlacementGrid::overlaps_settled`] of each of `tries`, [`TRIES_IN_STEP`] at a time in
+    /// stages: the same answers, with the misses of several tries overlapping.
     pub(crate) fn refusals(
         &self,
         mut tries: impl Iterator<Item = V>,
         radius: f64,
         refused: &mut [bool],
     ) {
-        debug_assert!(self.recent.is_empty());
         for refused in refused.chunks_mut(TRIES_IN_STEP) {
             let mut step = [V::ZERO; TRIES_IN_STEP];
             for (x, try_) in step.iter_mut().zip(&mut tries).take(refused.len()) {
@@ -254,15 +250,15 @@ impl<V: Vector> PlacementGrid<V> {
     }
 
     /// `test` of `x` and of its images across the seams of `periodic` (`domain`'s periodic
-    /// axes) that lie within reach of another particle: `x` is wrapped, so an image one
-    /// period away can only touch particles near the opposite face.
+    /// axes) that lie within reach of another particle, until one says true: `x` is wrapped,
+    /// so an image one period away can only touch particles near the opposite face.
     pub(crate) fn across_seams(
         &self,
         periodic: &Periodic,
         domain: &Aabb<V>,
         x: V,
         radius: f64,
-        test: impl Fn(V) -> bool,
+        mut test: impl FnMut(V) -> bool,
     ) -> bool {
         let reach = radius + self.max_radius;
         // Per axis: no shift, and one period towards the far face when x is near a face.
@@ -311,10 +307,10 @@ mod tests {
     use super::*;
     use glam::DVec2;
 
-    /// After settling in several rounds, every cell's settled run holds exactly the
-    /// particles inserted in that cell, and the overlap checks see them.
+    /// After merging in several rounds, every cell's run holds exactly the particles added
+    /// in that cell, and the overlap check sees them.
     #[test]
-    fn settling_sorts_every_particle_into_its_cell() {
+    fn merging_sorts_every_particle_into_its_cell() {
         let bounds = Aabb::new(DVec2::splat(0.0), DVec2::splat(20.0)).unwrap();
         let mut grid = PlacementGrid::new(bounds, 0.5, 400);
         let mut s = 3u64;
@@ -326,18 +322,11 @@ mod tests {
         };
         let mut all = Vec::new();
         for round in [1, 0, 7, 50, 3, 200] {
-            for _ in 0..round {
-                let x = DVec2::new(next(), next());
-                grid.insert(x, 0.5);
-                all.push(x);
-            }
-            assert!(all
-                .iter()
-                .all(|&x| grid.overlaps_recent(x, 0.01) || grid.overlaps_settled(x, 0.01)));
-            grid.settle();
+            let added: Vec<DVec2> = (0..round).map(|_| DVec2::new(next(), next())).collect();
+            grid.add(added.iter().map(|&x| (x, 0.5)));
+            all.extend(added);
             assert_eq!(grid.settled.len(), all.len());
-            assert!(grid.recent.is_empty() && grid.marks.iter().all(|&m| m == 0));
-            for c in 0..grid.head.len() {
+            for c in 0..grid.first_survivor.len() {
                 let mut here: Vec<DVec2> = grid.settled
                     [grid.starts[c] as usize..grid.starts[c + 1] as usize]
                     .iter()
@@ -346,7 +335,7 @@ mod tests {
                 let mut expected: Vec<DVec2> = all
                     .iter()
                     .copied()
-                    .filter(|&x| grid.cell_of(x) == c)
+                    .filter(|&x| grid.cell_of(x) as usize == c)
                     .collect();
                 let key = |v: &DVec2| (v.x.to_bits(), v.y.to_bits());
                 here.sort_by_key(key);
@@ -354,7 +343,30 @@ mod tests {
                 assert_eq!(here, expected, "cell {c}");
             }
             assert!(all.iter().all(|&x| grid.overlaps_settled(x, 0.01)));
-            assert!(!grid.overlaps_recent(DVec2::splat(10.0), 5.0));
         }
+    }
+
+    /// Every survivor near a point is visited, and only survivors of the cells around it.
+    #[test]
+    fn survivors_near_a_point_are_all_visited() {
+        let bounds = Aabb::new(DVec2::splat(0.0), DVec2::splat(20.0)).unwrap();
+        let mut grid = PlacementGrid::new(bounds, 0.5, 400);
+        let mut points: Vec<DVec2> = (0..300)
+            .map(|k| DVec2::new((k * 7 % 200) as f64 / 10.0, (k * 13 % 200) as f64 / 10.0))
+            .collect();
+        points.sort_by_key(|&x| grid.cell_of(x));
+        let cells: Vec<u32> = points.iter().map(|&x| grid.cell_of(x)).collect();
+        grid.index_survivors(&cells);
+        for &x in &points {
+            let mut seen = Vec::new();
+            grid.survivors_near(x, 0.5, &cells, |k| seen.push(k));
+            for (k, &y) in points.iter().enumerate() {
+                if (x - y).length() < 1.0 {
+                    assert!(seen.contains(&k), "{x} misses {y}");
+                }
+            }
+        }
+        grid.forget_survivors(&cells);
+        assert!(grid.first_survivor.iter().all(|&f| f == EMPTY));
     }
 }

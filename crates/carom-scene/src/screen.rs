@@ -1,0 +1,150 @@
+//! A batch of placement tries and the checks that decide which of them are placed: exactly
+//! those that overlap nothing placed before them, as one try after another would decide.
+//!
+//! Two checks, both on the thread pool, each try's answer its own:
+//! 1. every try against the particles placed before the batch (in the order of the tries'
+//!    cells, so that tries checked one after another read neighbouring cells);
+//! 2. every try that passed (a *survivor*) against the survivors before it in the batch,
+//!    found around it through the grid's index of survivors; overlapping pairs are rare.
+//!
+//! Then one pass in try order settles the chains: a survivor is placed unless a survivor
+//! before it that it overlaps was placed.
+
+use crate::fill::Placer;
+use crate::placement::{Disc, PlacementGrid};
+use carom_engine::Vector;
+use rayon::prelude::*;
+
+/// Tries per task of a batch's checks on the thread pool.
+const TRIES_PER_TASK: usize = 512;
+
+/// A batch of tries and the scratch of its checks (kept from batch to batch).
+#[derive(Default)]
+pub(crate) struct Screen<V> {
+    /// The tries, in the order they were drawn.
+    pub tries: Vec<V>,
+    /// Whether each try is placed (after [`Screen::decide`]).
+    pub placed: Vec<bool>,
+    /// Each try's cell (high half) and index (low half), sorted.
+    by_cell: Vec<u64>,
+    /// Whether each try in that order overlaps a particle placed before the batch.
+    sorted_refused: Vec<bool>,
+    /// The survivors' keys (as in `by_cell`), in cell order.
+    survivors: Vec<u64>,
+    /// Their cells.
+    survivor_cells: Vec<u32>,
+    /// `(try, earlier try)` for every two survivors that overlap, sorted.
+    conflicts: Vec<(u32, u32)>,
+    /// The placed survivors with their cells, in cell order: what [`Screen::settle`] merges.
+    added: Vec<(u32, Disc<V>)>,
+}
+
+/// The try index of a key of [`Screen::by_cell`].
+#[inline]
+fn index(key: u64) -> usize {
+    (key & u64::from(u32::MAX)) as usize
+}
+
+impl<V: Vector> Screen<V> {
+    /// Fills [`Screen::placed`] for a particle of `radius` at each try.
+    pub fn decide(&mut self, placer: &mut Placer<V>, radius: f64) {
+        self.check_placed(placer, radius);
+        self.survivors.clear();
+        self.survivors.extend(
+            self.by_cell
+                .iter()
+                .zip(&self.sorted_refused)
+                .filter(|&(_, &refused)| !refused)
+                .map(|(&key, _)| key),
+        );
+        self.survivor_cells.clear();
+        self.survivor_cells
+            .extend(self.survivors.iter().map(|&key| (key >> 32) as u32));
+        placer.grid.index_survivors(&self.survivor_cells);
+        self.check_survivors(placer, radius);
+        placer.grid.forget_survivors(&self.survivor_cells);
+        self.placed.clear();
+        self.placed.resize(self.tries.len(), false);
+        for &key in &self.survivors {
+            self.placed[index(key)] = true;
+        }
+        let mut conflicts = self.conflicts.iter().peekable();
+        for k in 0..self.tries.len() {
+            while let Some(&&(later, earlier)) = conflicts.peek() {
+                if later as usize != k {
+                    break;
+                }
+                if self.placed[earlier as usize] {
+                    self.placed[k] = false;
+                }
+                conflicts.next();
+            }
+        }
+    }
+
+    /// Sorts the tries by cell and checks each against the particles placed before the batch.
+    fn check_placed(&mut self, placer: &Placer<V>, radius: f64) {
+        let grid = &placer.grid;
+        self.by_cell.clear();
+        self.by_cell.extend(
+            self.tries
+                .iter()
+                .enumerate()
+                .map(|(k, &x)| (u64::from(grid.cell_of(x)) << 32) | k as u64),
+        );
+        self.by_cell.par_sort_unstable();
+        self.sorted_refused.clear();
+        self.sorted_refused.resize(self.tries.len(), false);
+        let tries = &self.tries;
+        self.by_cell
+            .par_chunks(TRIES_PER_TASK)
+            .zip(self.sorted_refused.par_chunks_mut(TRIES_PER_TASK))
+            .for_each(|(keys, refused)| {
+                placer.refusals(keys.iter().map(|&key| tries[index(key)]), radius, refused)
+            });
+    }
+
+    /// Fills [`Screen::conflicts`]: every survivor against the survivors of lower try index
+    /// around it (the grid indexes the survivors).
+    fn check_survivors(&mut self, placer: &Placer<V>, radius: f64) {
+        let (tries, survivors, cells) = (&self.tries, &self.survivors, &self.survivor_cells);
+        let grid: &PlacementGrid<V> = &placer.grid;
+        self.conflicts = survivors
+            .par_chunks(TRIES_PER_TASK)
+            .flat_map_iter(|keys| {
+                let mut found = Vec::new();
+                for &key in keys {
+                    let (k, x) = (index(key), tries[index(key)]);
+                    placer.across_seams(x, radius, |image| {
+                        grid.survivors_near(image, radius, cells, |s| {
+                            let earlier = index(survivors[s]);
+                            let disc = Disc {
+                                centre: tries[earlier],
+                                radius,
+                            };
+                            if earlier < k && disc.overlaps(image, radius) {
+                                found.push((k as u32, earlier as u32));
+                            }
+                        });
+                        false
+                    });
+                }
+                found
+            })
+            .collect();
+        self.conflicts.sort_unstable();
+    }
+
+    /// Adds the placed tries before try `end` to `grid`.
+    pub fn settle(&mut self, grid: &mut PlacementGrid<V>, end: usize, radius: f64) {
+        self.added.clear();
+        for (&key, &cell) in self.survivors.iter().zip(&self.survivor_cells) {
+            let k = index(key);
+            if k < end && self.placed[k] {
+                let centre = self.tries[k];
+                self.added.push((cell, Disc { centre, radius }));
+            }
+        }
+        grid.merge(&self.added);
+    }
+}
