@@ -27,12 +27,17 @@ pub(crate) struct Screen<V> {
     pub placed: Vec<bool>,
     /// Each try's cell (high half) and index (low half), sorted.
     by_cell: Vec<u64>,
+    /// The tries in that order.
+    sorted_tries: Vec<V>,
     /// Whether each try in that order overlaps a particle placed before the batch.
     sorted_refused: Vec<bool>,
     /// The survivors' keys (as in `by_cell`), in cell order.
     survivors: Vec<u64>,
     /// Their cells.
     survivor_cells: Vec<u32>,
+    /// Their positions (read many times each by the survivors around them: here in the
+    /// order they are read in, rather than in try order).
+    survivor_centres: Vec<V>,
     /// `(try, earlier try)` for every two survivors that overlap, sorted.
     conflicts: Vec<(u32, u32)>,
     /// The placed survivors with their cells, in cell order: what [`Screen::settle`] merges.
@@ -50,13 +55,15 @@ impl<V: Vector> Screen<V> {
     pub fn decide(&mut self, placer: &mut Placer<V>, radius: f64) {
         self.check_placed(placer, radius);
         self.survivors.clear();
-        self.survivors.extend(
-            self.by_cell
-                .iter()
-                .zip(&self.sorted_refused)
-                .filter(|&(_, &refused)| !refused)
-                .map(|(&key, _)| key),
-        );
+        self.survivor_centres.clear();
+        let sorted = self.by_cell.iter().zip(&self.sorted_tries);
+        for ((&key, &x), _) in sorted
+            .zip(&self.sorted_refused)
+            .filter(|&(_, &refused)| !refused)
+        {
+            self.survivors.push(key);
+            self.survivor_centres.push(x);
+        }
         self.survivor_cells.clear();
         self.survivor_cells
             .extend(self.survivors.iter().map(|&key| (key >> 32) as u32));
@@ -93,33 +100,36 @@ impl<V: Vector> Screen<V> {
                 .map(|(k, &x)| (u64::from(grid.cell_of(x)) << 32) | k as u64),
         );
         self.by_cell.par_sort_unstable();
+        let tries = &self.tries;
+        self.sorted_tries.clear();
+        self.sorted_tries
+            .par_extend(self.by_cell.par_iter().map(|&key| tries[index(key)]));
         self.sorted_refused.clear();
         self.sorted_refused.resize(self.tries.len(), false);
-        let tries = &self.tries;
-        self.by_cell
+        self.sorted_tries
             .par_chunks(TRIES_PER_TASK)
             .zip(self.sorted_refused.par_chunks_mut(TRIES_PER_TASK))
-            .for_each(|(keys, refused)| {
-                placer.refusals(keys.iter().map(|&key| tries[index(key)]), radius, refused)
-            });
+            .for_each(|(xs, refused)| placer.refusals(xs.iter().copied(), radius, refused));
     }
 
     /// Fills [`Screen::conflicts`]: every survivor against the survivors of lower try index
     /// around it (the grid indexes the survivors).
     fn check_survivors(&mut self, placer: &Placer<V>, radius: f64) {
-        let (tries, survivors, cells) = (&self.tries, &self.survivors, &self.survivor_cells);
+        let (survivors, cells) = (&self.survivors, &self.survivor_cells);
+        let centres = &self.survivor_centres;
         let grid: &PlacementGrid<V> = &placer.grid;
         self.conflicts = survivors
             .par_chunks(TRIES_PER_TASK)
-            .flat_map_iter(|keys| {
+            .zip(centres.par_chunks(TRIES_PER_TASK))
+            .flat_map_iter(|(keys, xs)| {
                 let mut found = Vec::new();
-                for &key in keys {
-                    let (k, x) = (index(key), tries[index(key)]);
+                for (&key, &x) in keys.iter().zip(xs) {
+                    let k = index(key);
                     placer.across_seams(x, radius, |image| {
                         grid.survivors_near(image, radius, cells, |s| {
                             let earlier = index(survivors[s]);
                             let disc = Disc {
-                                centre: tries[earlier],
+                                centre: centres[s],
                                 radius,
                             };
                             if earlier < k && disc.overlaps(image, radius) {
@@ -138,10 +148,10 @@ impl<V: Vector> Screen<V> {
     /// Adds the placed tries before try `end` to `grid`.
     pub fn settle(&mut self, grid: &mut PlacementGrid<V>, end: usize, radius: f64) {
         self.added.clear();
-        for (&key, &cell) in self.survivors.iter().zip(&self.survivor_cells) {
+        let survivors = self.survivors.iter().zip(&self.survivor_cells);
+        for ((&key, &cell), &centre) in survivors.zip(&self.survivor_centres) {
             let k = index(key);
             if k < end && self.placed[k] {
-                let centre = self.tries[k];
                 self.added.push((cell, Disc { centre, radius }));
             }
         }
