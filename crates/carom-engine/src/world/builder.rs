@@ -236,7 +236,7 @@ impl<V: Vector> WorldBuilder<V> {
         }
         let remembered = Memory::from_ids(&self.impulses, &slots);
         let rest = if self.impulses.rest.is_empty() {
-            vec![0.0; n]
+            Vec::new()
         } else {
             ids.iter()
                 .map(|&id| self.impulses.rest[id as usize])

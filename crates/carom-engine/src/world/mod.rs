@@ -101,7 +101,8 @@ pub struct World<V: Vector> {
     plane_buffers: Vec<Vec<PlaneContact>>,
     /// Resting impulses kept from the last step.
     memory: Memory,
-    /// How long each slot has rested (see [`crate::sleep`]).
+    /// How long each slot has rested (see [`crate::sleep`]); empty while every rest time is
+    /// zero and particles cannot sleep (the gas of a lecture step never allocates it).
     rest: Vec<f64>,
     /// Who sleeps this step.
     sleepers: Sleepers,
@@ -188,7 +189,15 @@ impl<V: Vector> World<V> {
             return true;
         }
         match self.config.sleep_settings(&self.planes) {
-            Some(settings) => sleep::all_still(&self.rest, &self.store.velocity, settings.time),
+            Some(settings) => {
+                // (no rest times yet: every one is zero)
+                let rested = if self.rest.is_empty() {
+                    0.0 >= settings.time
+                } else {
+                    true
+                };
+                rested && sleep::all_still(&self.rest, &self.store.velocity, settings.time)
+            }
             None => false,
         }
     }
@@ -255,7 +264,9 @@ impl<V: Vector> World<V> {
         let s = self.slots[id] as usize;
         self.store.velocity[s] = velocity;
         // (a push wakes the particle, and with it its neighbours at the next step)
-        self.rest[s] = 0.0;
+        if let Some(rest) = self.rest.get_mut(s) {
+            *rest = 0.0;
+        }
         self.all_asleep = false;
         Ok(())
     }
@@ -295,7 +306,7 @@ impl<V: Vector> World<V> {
         }
         self.memory = Memory::from_ids(&impulses, &slots);
         self.rest = if impulses.rest.is_empty() {
-            vec![0.0; n]
+            Vec::new()
         } else {
             storage_order
                 .iter()
@@ -538,5 +549,38 @@ impl<V: Vector> World<V> {
             }
         }
         h.finish()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::domain::Aabb;
+    use glam::DVec2;
+
+    /// Rest times take memory only once particles can sleep: a gas of the lecture's step
+    /// (no gravity, k = 1) never keeps them, a world under gravity with k < 1 does from its
+    /// first step.
+    #[test]
+    fn rest_times_are_kept_only_where_particles_can_sleep() {
+        let stepped = |gravity: f64, k: f64| {
+            let mut world = World::<DVec2>::builder()
+                .dt(0.01)
+                .gravity(DVec2::new(0.0, -gravity))
+                .restitution(k)
+                .domain(Aabb::new(DVec2::splat(-5.0), DVec2::splat(5.0)).unwrap())
+                .walls(k)
+                .sleep(true)
+                .particle(DVec2::ZERO, DVec2::X, 0.5, 1.0)
+                .particle(DVec2::new(2.0, 0.0), DVec2::ZERO, 0.5, 1.0)
+                .build()
+                .unwrap();
+            for _ in 0..40 {
+                world.step();
+            }
+            world
+        };
+        assert!(stepped(0.0, 1.0).rest.is_empty());
+        assert_eq!(stepped(9.81, 0.5).rest.len(), 2);
     }
 }

@@ -71,7 +71,11 @@ impl<V: Vector> Phases for World<V> {
         self.broad_phase
             .find_pairs(&self.store.position, &self.reach, &mut self.pairs);
         match sleep {
-            Some(settings) => self.mark_sleepers(settings.time),
+            Some(settings) => {
+                // (rest times from the first step that may sleep on: see `World::rest`)
+                self.rest.resize(self.store.len(), 0.0);
+                self.mark_sleepers(settings.time)
+            }
             None => self.sleepers.wake_all(),
         }
         self.find_plane_contacts(parallel);

@@ -64,7 +64,7 @@ impl Sorter {
         );
     }
 
-    /// Sorts the arrays by grid cell, ties by id.
+    /// Sorts the arrays by grid cell, ties by id (`rest` too, unless it is empty).
     pub(super) fn sort<V: Vector>(
         &mut self,
         store: &mut Particles<V>,
@@ -87,6 +87,10 @@ impl Sorter {
             radius,
             mass,
         } = store;
+        let (has_rest, no_rest) = (!rest.is_empty(), &mut [0.0][..]);
+        let rest = if has_rest { rest } else { no_rest };
+        // (without rest times, every particle reads and writes the one placeholder)
+        let at = |s: usize| if has_rest { s } else { 0 };
         for start in 0..n {
             if self.done[start / 64] & (1 << (start % 64)) != 0 {
                 continue;
@@ -97,7 +101,7 @@ impl Sorter {
                 radius[start],
                 mass[start],
                 ids[start],
-                rest[start],
+                rest[at(start)],
             );
             let mut s = start;
             loop {
@@ -110,7 +114,7 @@ impl Sorter {
                         radius[s],
                         mass[s],
                         ids[s],
-                        rest[s],
+                        rest[at(s)],
                     ) = saved;
                     break;
                 }
@@ -119,7 +123,7 @@ impl Sorter {
                 radius[s] = radius[from];
                 mass[s] = mass[from];
                 ids[s] = ids[from];
-                rest[s] = rest[from];
+                rest[at(s)] = rest[at(from)];
                 s = from;
             }
         }
