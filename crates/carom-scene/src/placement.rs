@@ -51,8 +51,6 @@ pub(crate) struct PlacementGrid<V> {
     /// Per cell, the first survivor of the batch being decided in it (an index into the
     /// survivors, which lie in cell order), or [`EMPTY`]; all [`EMPTY`] between batches.
     first_survivor: Vec<u32>,
-    /// Scratch of [`PlacementGrid::add`].
-    sorted: Vec<(u32, Disc<V>)>,
 }
 
 impl<V: Vector> PlacementGrid<V> {
@@ -68,7 +66,6 @@ impl<V: Vector> PlacementGrid<V> {
             starts: vec![0; cells + 1],
             settled: Vec::with_capacity(capacity),
             first_survivor: vec![EMPTY; cells],
-            sorted: Vec::new(),
         }
     }
 
@@ -79,15 +76,12 @@ impl<V: Vector> PlacementGrid<V> {
 
     /// Places `particles` (centre, radius), in any order.
     pub(crate) fn add(&mut self, particles: impl Iterator<Item = (V, f64)>) {
-        let mut sorted = std::mem::take(&mut self.sorted);
-        sorted.clear();
-        sorted.extend(
-            particles.map(|(centre, radius)| (self.cell_of(centre), Disc { centre, radius })),
-        );
+        let mut sorted: Vec<(u32, Disc<V>)> = particles
+            .map(|(centre, radius)| (self.cell_of(centre), Disc { centre, radius }))
+            .collect();
         // (stable: a cell's particles keep their order)
         sorted.sort_by_key(|&(cell, _)| cell);
         self.merge(&sorted);
-        self.sorted = sorted;
     }
 
     /// Places `added` (each with its cell, sorted by cell), merging them into the placed

@@ -75,16 +75,10 @@ impl<V: Vector> Screen<V> {
         for &key in &self.survivors {
             self.placed[index(key)] = true;
         }
-        let mut conflicts = self.conflicts.iter().peekable();
-        for k in 0..self.tries.len() {
-            while let Some(&&(later, earlier)) = conflicts.peek() {
-                if later as usize != k {
-                    break;
-                }
-                if self.placed[earlier as usize] {
-                    self.placed[k] = false;
-                }
-                conflicts.next();
+        // (by later try: the earlier one's fate is settled by the time it is read)
+        for &(later, earlier) in &self.conflicts {
+            if self.placed[earlier as usize] {
+                self.placed[later as usize] = false;
             }
         }
     }
