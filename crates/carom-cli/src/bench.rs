@@ -144,19 +144,14 @@ fn lecture_toml(broadphase: &str, fills: &[Fill]) -> String {
 /// fraction in a walled cube, gravity, k = 1.
 fn sweep_toml(dim: usize, n: u64) -> String {
     use std::f64::consts::PI;
-    let (side, zeros, g) = if dim == 2 {
-        ((n as f64 * PI / 0.3).sqrt(), "0.0", "[0.0, -9.8]")
+    let (side, g) = if dim == 2 {
+        ((n as f64 * PI / 0.3).sqrt(), "[0.0, -9.8]")
     } else {
-        (
-            (n as f64 * 4.0 / 3.0 * PI / 0.2).cbrt(),
-            "0.0, 0.0",
-            "[0.0, -9.8, 0.0]",
-        )
+        ((n as f64 * 4.0 / 3.0 * PI / 0.2).cbrt(), "[0.0, -9.8, 0.0]")
     };
     let half = side / 2.0;
     let lo: Vec<String> = (0..dim).map(|_| format!("{:.6}", -half)).collect();
     let hi: Vec<String> = (0..dim).map(|_| format!("{half:.6}")).collect();
-    let _ = zeros;
     format!(
         "dimensions = {dim}\ndt = 0.005\ngravity = {g}\nrestitution = 1.0\n\
          [domain]\nmin = [{}]\nmax = [{}]\nwalls = true\n\
