@@ -17,7 +17,7 @@
 //! one largest diameter wide this is the lecture's 3x3 (3x3x3) block; smaller cells or mixed
 //! radii (its radius 1 and 3 demo) widen the search instead of missing contacts.
 
-use crate::broadphase::{collect_pairs, BroadPhase, Pair, PARALLEL_MIN};
+use crate::broadphase::{collect_pairs, BroadPhase, CellScratch, Pair, PARALLEL_MIN};
 use crate::bucket::{counting_sort, counting_sort_parallel};
 use crate::domain::Aabb;
 use crate::error::EngineError;
@@ -464,6 +464,22 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
         });
     }
 
+    fn find_pairs_in(
+        &mut self,
+        positions: &[V],
+        radii: &[f64],
+        pairs: &mut Vec<Pair>,
+        scratch: &mut CellScratch,
+    ) {
+        // (the grid's own arrays stay empty: the lent ones come back holding this search's
+        // buckets, which nothing reads after it)
+        std::mem::swap(&mut self.cell_of, &mut scratch.keys);
+        std::mem::swap(&mut self.cell_start, &mut scratch.starts);
+        self.find_pairs(positions, radii, pairs);
+        std::mem::swap(&mut self.cell_of, &mut scratch.keys);
+        std::mem::swap(&mut self.cell_start, &mut scratch.starts);
+    }
+
     fn name(&self) -> &'static str {
         if self.escaped {
             "grid (hash while particles are outside the domain)"
@@ -554,6 +570,25 @@ mod tests {
             .unwrap()
             .find_pairs(&pos, &rad, &mut got);
         assert_eq!(got, expected, "derived cells");
+    }
+
+    /// A search in lent arrays finds the same pairs, and the grid keeps none of its own.
+    #[test]
+    fn a_search_in_lent_arrays_finds_the_same_pairs() {
+        let (pos, rad) = lattice_with_jitter(600);
+        let mut expected = Vec::new();
+        Grid::new(None, None)
+            .unwrap()
+            .find_pairs(&pos, &rad, &mut expected);
+        let mut grid = Grid::new(None, None).unwrap();
+        let mut scratch = CellScratch::default();
+        for _ in 0..2 {
+            let mut got = Vec::new();
+            grid.find_pairs_in(&pos, &rad, &mut got, &mut scratch);
+            assert_eq!(got, expected);
+        }
+        assert_eq!(grid.cell_of.capacity() + grid.cell_start.capacity(), 0);
+        assert_eq!(scratch.keys.len(), pos.len());
     }
 
     #[test]

@@ -489,8 +489,12 @@ impl<V: Vector> World<V> {
     /// the first step, which measures it as it goes).
     fn overlap_now(&mut self) -> f64 {
         let mut pairs = Vec::new();
-        self.broad_phase
-            .find_pairs(&self.store.position, &self.store.radius, &mut pairs);
+        self.broad_phase.find_pairs_in(
+            &self.store.position,
+            &self.store.radius,
+            &mut pairs,
+            &mut self.sorter.scratch,
+        );
         let (p, periodic) = (&self.store, &self.periodic);
         pairs
             .iter()

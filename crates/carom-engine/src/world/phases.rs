@@ -68,8 +68,12 @@ impl<V: Vector> Phases for World<V> {
                 .zip(p.velocity.iter().zip(p.radius.iter()))
                 .for_each(reach);
         }
-        self.broad_phase
-            .find_pairs(&self.store.position, &self.reach, &mut self.pairs);
+        self.broad_phase.find_pairs_in(
+            &self.store.position,
+            &self.reach,
+            &mut self.pairs,
+            &mut self.sorter.scratch,
+        );
         match sleep {
             Some(settings) => {
                 // (rest times from the first step that may sleep on: see `World::rest`)

@@ -1,6 +1,6 @@
 //! The spatial sort of the particle arrays (see the [module notes](super)).
 
-use crate::broadphase::PARALLEL_MIN;
+use crate::broadphase::{CellScratch, PARALLEL_MIN};
 use crate::bucket::counting_sort;
 use crate::domain::Aabb;
 use crate::grid::{bounding_box, GridLayout};
@@ -19,10 +19,10 @@ pub(crate) fn sort_layout<V: Vector>(bounds: &Aabb<V>, max_radius: f64, n: usize
 /// The spatial sort's scratch space, kept between sorts.
 #[derive(Debug, Default)]
 pub(super) struct Sorter {
-    /// Each slot's cell while planning; after [`Sorter::sort`], where the slot's particle
-    /// went (see [`Sorter::new_slot_of`]).
-    keys: Vec<u32>,
-    starts: Vec<u32>,
+    /// `keys`: each slot's cell while planning; after [`Sorter::sort`], where the slot's
+    /// particle went (see [`Sorter::new_slot_of`]), until the next step's search by cells
+    /// borrows them (see [`crate::broadphase::BroadPhase::find_pairs_in`]).
+    pub(super) scratch: CellScratch,
     pub(super) order: Vec<u32>,
     done: Vec<u64>,
 }
@@ -39,15 +39,17 @@ impl Sorter {
         let n = store.len();
         let bounds = domain.unwrap_or_else(|| bounding_box(&store.position));
         let layout = sort_layout(&bounds, store.max_radius(), n);
-        self.keys.resize(n, 0);
+        self.scratch.keys.resize(n, 0);
         let key = |(k, &x): (&mut u32, &V)| *k = layout.linear(layout.cell_coords(x)) as u32;
         if n >= PARALLEL_MIN {
-            self.keys
+            self.scratch
+                .keys
                 .par_iter_mut()
                 .zip(store.position.par_iter())
                 .for_each(key);
         } else {
-            self.keys
+            self.scratch
+                .keys
                 .iter_mut()
                 .zip(store.position.iter())
                 .for_each(key);
@@ -56,10 +58,10 @@ impl Sorter {
         // the order before: a world rebuilt from the same state sorts the same way.
         let items = slots.iter().copied();
         counting_sort(
-            &self.keys,
+            &self.scratch.keys,
             layout.total(),
             items,
-            &mut self.starts,
+            &mut self.scratch.starts,
             &mut self.order,
         );
     }
@@ -132,12 +134,12 @@ impl Sorter {
         }
         // (the keys are done with: they become the map from old slots to new)
         for (new, &old) in self.order.iter().enumerate() {
-            self.keys[old as usize] = new as u32;
+            self.scratch.keys[old as usize] = new as u32;
         }
     }
 
     /// After [`Sorter::sort`]: for each slot before the sort, the slot its particle is in now.
     pub(super) fn new_slot_of(&self) -> &[u32] {
-        &self.keys
+        &self.scratch.keys
     }
 }
