@@ -19,7 +19,8 @@ pub trait BroadPhase<V: Vector>: Send + Sync {
     fn find_pairs(&mut self, positions: &[V], radii: &[f64], pairs: &mut Vec<Pair>);
 
     /// [`BroadPhase::find_pairs`], with `scratch` for the working arrays it would otherwise
-    /// keep between searches (a cell per particle, a start per cell): a world lends the
+    /// keep between searches (a cell per particle, a start per cell, the particles in cell
+    /// order): a world lends the
     /// spatial sort's, which are free at that point of a step, so the two need memory for one
     /// set of arrays, not two. The same pairs either way.
     fn find_pairs_in(
@@ -43,13 +44,16 @@ pub trait BroadPhase<V: Vector>: Send + Sync {
 }
 
 /// Working arrays that a search by cells and the spatial sort of a world's storage both need at
-/// different times of a step, so one set serves both (see [`BroadPhase::find_pairs_in`]).
+/// different times of a step, so one set serves both (see [`BroadPhase::find_pairs_in`]): the
+/// layout of a counting sort by cell.
 #[derive(Debug, Default)]
 pub struct CellScratch {
     /// A cell number per particle.
     pub(crate) keys: Vec<u32>,
     /// Where each cell's run starts.
     pub(crate) starts: Vec<u32>,
+    /// The particles in cell order.
+    pub(crate) order: Vec<u32>,
 }
 
 /// Which broad phase a world uses.

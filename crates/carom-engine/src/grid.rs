@@ -473,11 +473,14 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
     ) {
         // (the grid's own arrays stay empty: the lent ones come back holding this search's
         // buckets, which nothing reads after it)
-        std::mem::swap(&mut self.cell_of, &mut scratch.keys);
-        std::mem::swap(&mut self.cell_start, &mut scratch.starts);
+        let lend = |grid: &mut Self, scratch: &mut CellScratch| {
+            std::mem::swap(&mut grid.cell_of, &mut scratch.keys);
+            std::mem::swap(&mut grid.cell_start, &mut scratch.starts);
+            std::mem::swap(&mut grid.ids, &mut scratch.order);
+        };
+        lend(self, scratch);
         self.find_pairs(positions, radii, pairs);
-        std::mem::swap(&mut self.cell_of, &mut scratch.keys);
-        std::mem::swap(&mut self.cell_start, &mut scratch.starts);
+        lend(self, scratch);
     }
 
     fn name(&self) -> &'static str {
@@ -587,7 +590,8 @@ mod tests {
             grid.find_pairs_in(&pos, &rad, &mut got, &mut scratch);
             assert_eq!(got, expected);
         }
-        assert_eq!(grid.cell_of.capacity() + grid.cell_start.capacity(), 0);
+        let own = grid.cell_of.capacity() + grid.cell_start.capacity() + grid.ids.capacity();
+        assert_eq!(own, 0);
         assert_eq!(scratch.keys.len(), pos.len());
     }
 

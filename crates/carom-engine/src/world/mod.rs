@@ -340,7 +340,9 @@ impl<V: Vector> World<V> {
         }
         let mut sorter = Sorter::default();
         sorter.plan(&self.store, &self.slots, self.config.domain);
-        sorter.order.iter().map(|&s| self.ids[s as usize]).collect()
+        (sorter.scratch.order.iter())
+            .map(|&s| self.ids[s as usize])
+            .collect()
     }
 
     /// Ids by storage slot: what [`WorldBuilder::resume`] needs to continue this run exactly.

@@ -23,12 +23,11 @@ pub(super) struct Sorter {
     /// particle went (see [`Sorter::new_slot_of`]), until the next step's search by cells
     /// borrows them (see [`crate::broadphase::BroadPhase::find_pairs_in`]).
     pub(super) scratch: CellScratch,
-    pub(super) order: Vec<u32>,
     done: Vec<u64>,
 }
 
 impl Sorter {
-    /// Fills `self.order` with the slots of `store` in their sorted order (by grid cell, ties
+    /// Fills `self.scratch.order` with the slots of `store` in their sorted order (by grid cell, ties
     /// by id): new slot `s` takes what is now at slot `order[s]`.
     pub(super) fn plan<V: Vector>(
         &mut self,
@@ -62,7 +61,7 @@ impl Sorter {
             layout.total(),
             items,
             &mut self.scratch.starts,
-            &mut self.order,
+            &mut self.scratch.order,
         );
     }
 
@@ -108,7 +107,7 @@ impl Sorter {
             let mut s = start;
             loop {
                 self.done[s / 64] |= 1 << (s % 64);
-                let from = self.order[s] as usize;
+                let from = self.scratch.order[s] as usize;
                 if from == start {
                     (
                         position[s],
@@ -133,7 +132,7 @@ impl Sorter {
             slots[id as usize] = slot as u32;
         }
         // (the keys are done with: they become the map from old slots to new)
-        for (new, &old) in self.order.iter().enumerate() {
+        for (new, &old) in self.scratch.order.iter().enumerate() {
             self.scratch.keys[old as usize] = new as u32;
         }
     }
