@@ -66,6 +66,8 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     );
     let parallel = c.blocks.parallel();
     let mut solve = VelocitySolve::default();
+    // (whether the last substep's re-placing marked the impulses kept: see `place`)
+    let mut kept = false;
     for (index, pass) in (0..substeps)
         .map(|_| Pass::Relax)
         .chain([Pass::Restitution])
@@ -73,11 +75,13 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     {
         if pass == Pass::Restitution {
             exchange.settle_rows(c.blocks, c.rows.reborrow());
-            c.rows.keep_impulses(parallel);
-            for row in c.plane_rows.iter_mut() {
-                row.kept = row.impulse;
+            if !kept {
+                c.rows.keep_impulses(parallel);
+                for row in c.plane_rows.iter_mut() {
+                    row.kept = row.impulse;
+                }
+                exchange.keep_impulses();
             }
-            exchange.keep_impulses();
             if exchange.total(impacts) == 0 {
                 break;
             }
@@ -125,7 +129,8 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
             let (x, v) = (&mut position[..own], &mut velocity[..own]);
             advance_positions(parallel, x, v, asleep, h, next_fall);
             if substeps > 1 {
-                place(exchange, position, c, h);
+                place(exchange, position, c, h, last_relax);
+                kept = last_relax;
             }
             solve.motion += clock.elapsed();
         }
@@ -283,19 +288,30 @@ pub(super) fn relax<V: Vector, E: Exchange<V>>(
     (cap, true)
 }
 
-/// Brings every contact's normal, detection and allowance up to date with the positions.
+/// Brings every contact's normal, detection and allowance up to date with the positions. With
+/// `keep` (after the last substep's relax: nothing changes an impulse from there to the
+/// restitution pass), also marks every impulse as the one the relax kept ([`RowRecord::kept`],
+/// [`PlaneRow::kept`]) in the same pass: a pass of its own over 10^6 falling discs' rows took
+/// 4.5-5.7 ms a step.
 pub(super) fn place<V: Vector, E: Exchange<V>>(
     exchange: &mut E,
     position: &mut [V],
     c: &mut Contacts<V>,
     h: f64,
+    keep: bool,
 ) {
     let pairs = |row: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
+        if keep {
+            record.kept = row.impulse;
+        }
         row.place(record, *xi, *xj, h);
         Change::Nothing
     };
     let planes = c.planes;
     let on_planes = |row: &mut PlaneRow<V>, x: &mut V| {
+        if keep {
+            row.kept = row.impulse;
+        }
         row.place(&planes[row.plane as usize], *x, h);
         Change::Nothing
     };
