@@ -310,9 +310,10 @@ impl Frontier {
             index.list.resize(start[reached] as usize, 0);
             // (filled through `start[l]` as a cursor, which ends at the next slot's start)
             let first = pair_start[b];
-            for (k, &(i, j)) in mine.iter().enumerate() {
-                if (j as usize) < end {
-                    for l in [i as usize - base, j as usize - base] {
+            for (k, pair) in mine.iter().enumerate() {
+                if within(&pair) {
+                    let (i, j) = local(pair);
+                    for l in [i, j] {
                         index.list[start[l] as usize] = (first + k) as u32;
                         start[l] += 1;
                     }

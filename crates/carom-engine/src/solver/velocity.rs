@@ -66,8 +66,8 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     );
     let parallel = c.blocks.parallel();
     let mut solve = VelocitySolve::default();
-    // (whether the last substep's re-placing marked the impulses kept: see `place`)
-    let mut kept = false;
+    // (with substeps, the last substep's re-placing marks the impulses kept: see `place`)
+    let kept_by_place = substeps > 1;
     for (index, pass) in (0..substeps)
         .map(|_| Pass::Relax)
         .chain([Pass::Restitution])
@@ -75,7 +75,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     {
         if pass == Pass::Restitution {
             exchange.settle_rows(c.blocks, c.rows.reborrow());
-            if !kept {
+            if !kept_by_place {
                 c.rows.keep_impulses(parallel);
                 for row in c.plane_rows.iter_mut() {
                     row.kept = row.impulse;
@@ -130,7 +130,6 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
             advance_positions(parallel, x, v, asleep, h, next_fall);
             if substeps > 1 {
                 place(exchange, position, c, h, last_relax);
-                kept = last_relax;
             }
             solve.motion += clock.elapsed();
         }
