@@ -82,6 +82,11 @@ struct Measured {
     ms_per_step: f64,
     ns_per_particle_step: f64,
     contacts_per_step: f64,
+    /// Velocity sweeps a timed step made, on average (every pass's, substeps included): the
+    /// solver's share of the work, which the time alone does not show.
+    sweeps_per_step: f64,
+    /// Responses (rule applications that changed a velocity) a timed step made, on average.
+    responses_per_step: f64,
     /// Timed steps that hit the velocity sweeps' cap.
     capped_steps: u64,
     /// Largest overlap at the end of the last step, as a fraction of the smaller radius.
@@ -522,6 +527,10 @@ fn print_phases(r: &Measured) {
         r.ns_per_particle_step / r.floor_ns_per_particle.max(f64::MIN_POSITIVE),
         phases.join(", ")
     );
+    println!(
+        "{:<44} solver: {:.1} velocity sweeps and {:.0} responses a step",
+        "", r.sweeps_per_step, r.responses_per_step
+    );
 }
 
 /// Peak resident memory of this process so far (0 where the system does not say).
@@ -555,6 +564,7 @@ fn measure<V: Vector>(
         .map_err(|e| Failure::input(e.to_string()))?;
     let n = world.len();
     let (mut contacts, mut capped, mut end_max_overlap) = (0u64, 0u64, 0.0);
+    let (mut sweeps, mut responses) = (0u64, 0u64);
     // On a pool thread, as `carom run` steps (see run.rs).
     let (setup_seconds, seconds) = rayon::scope(|_| {
         for _ in 0..case.warmup {
@@ -567,6 +577,8 @@ fn measure<V: Vector>(
             let stats = world.step();
             contacts += stats.contacts as u64;
             capped += stats.capped as u64;
+            sweeps += stats.velocity_iterations as u64;
+            responses += stats.responses;
             end_max_overlap = stats.max_overlap;
         }
         (setup_seconds, t.elapsed().as_secs_f64())
@@ -594,6 +606,8 @@ fn measure<V: Vector>(
         ms_per_step: seconds * 1e3 / steps,
         ns_per_particle_step: seconds * 1e9 / steps / n.max(1) as f64,
         contacts_per_step: contacts as f64 / steps,
+        sweeps_per_step: sweeps as f64 / steps,
+        responses_per_step: responses as f64 / steps,
         capped_steps: capped,
         end_max_overlap,
         end_v_rms,

@@ -441,6 +441,12 @@ fn bench_quick_measures_every_case() {
         table.contains("velocity") && table.contains("broad phase"),
         "{table}"
     );
+    // and the solver's work beside its time
+    let solver = table
+        .lines()
+        .filter(|l| l.contains("velocity sweeps and"))
+        .count();
+    assert_eq!(solver, breakdowns, "{table}");
     let text = std::fs::read_to_string(&json).unwrap();
     let report: serde_json::Value = serde_json::from_str(&text).unwrap();
     for case in report["results"].as_array().unwrap() {
@@ -462,6 +468,10 @@ fn bench_quick_measures_every_case() {
                 "bookkeeping"
             ]
         );
+        // every step sweeps at least once (no case sleeps whole), and each response is a sweep's
+        let sweeps = case["sweeps_per_step"].as_f64().unwrap();
+        let responses = case["responses_per_step"].as_f64().unwrap();
+        assert!(sweeps >= 1.0 && responses >= 0.0, "{case}");
         // the phases cover the step: together within the timed steps' wall time
         let sum: f64 = phases.iter().map(|p| p[1].as_f64().unwrap()).sum();
         let step = case["ms_per_step"].as_f64().unwrap();
