@@ -55,12 +55,23 @@ where
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".carom-")
-        .suffix(".tmp")
-        .tempfile_in(dir)?;
-    let tmp_path = tmp.path().to_path_buf();
-    in_flight().push(tmp_path.clone());
+    // (made and registered under one lock: a process exiting at once between the two would
+    // leave a temporary nobody removes)
+    let (mut tmp, tmp_path) = {
+        let mut in_flight = in_flight();
+        if in_flight.closed {
+            return Err(io::Error::other(
+                "the process is exiting at once: no file is started",
+            ));
+        }
+        let tmp = tempfile::Builder::new()
+            .prefix(".carom-")
+            .suffix(".tmp")
+            .tempfile_in(dir)?;
+        let tmp_path = tmp.path().to_path_buf();
+        in_flight.paths.push(tmp_path.clone());
+        (tmp, tmp_path)
+    };
     let result = (|| {
         {
             let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file_mut());
@@ -78,13 +89,22 @@ where
         tmp.persist(path).map_err(|e| e.error)?;
         Ok(())
     })();
-    in_flight().retain(|p| p != &tmp_path);
+    in_flight().paths.retain(|p| p != &tmp_path);
     result
 }
 
-/// Temporaries being written right now (see [`remove_in_flight_temporaries`]).
-fn in_flight() -> std::sync::MutexGuard<'static, Vec<std::path::PathBuf>> {
-    static IN_FLIGHT: std::sync::Mutex<Vec<std::path::PathBuf>> = std::sync::Mutex::new(Vec::new());
+/// The temporaries being written right now, and whether the process is exiting (see
+/// [`remove_in_flight_temporaries`]).
+struct InFlight {
+    paths: Vec<std::path::PathBuf>,
+    closed: bool,
+}
+
+fn in_flight() -> std::sync::MutexGuard<'static, InFlight> {
+    static IN_FLIGHT: std::sync::Mutex<InFlight> = std::sync::Mutex::new(InFlight {
+        paths: Vec::new(),
+        closed: false,
+    });
     IN_FLIGHT
         .lock()
         .unwrap_or_else(|poisoned| poisoned.into_inner())
@@ -92,8 +112,12 @@ fn in_flight() -> std::sync::MutexGuard<'static, Vec<std::path::PathBuf>> {
 
 /// Deletes the temporaries of writes still under way, for a process about to exit at once (a
 /// second Ctrl-C): the targets are then untouched, and nothing half-written is left behind.
+/// From then on [`write_atomic`] starts no file (it fails before making its temporary), so no
+/// write that was about to begin can leave one either.
 pub fn remove_in_flight_temporaries() {
-    for p in in_flight().drain(..) {
+    let mut in_flight = in_flight();
+    in_flight.closed = true;
+    for p in in_flight.paths.drain(..) {
         let _ = std::fs::remove_file(p);
     }
 }
