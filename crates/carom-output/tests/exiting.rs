@@ -2,7 +2,6 @@
 //! that was about to begin. In a test binary of its own: it closes the process-wide writes.
 
 use carom_output::{remove_in_flight_temporaries, write_atomic};
-use std::io::Write;
 
 #[test]
 fn no_file_is_started_once_the_temporaries_are_removed() {
