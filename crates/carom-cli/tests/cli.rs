@@ -468,10 +468,14 @@ fn bench_quick_measures_every_case() {
                 "bookkeeping"
             ]
         );
-        // every step sweeps at least once (no case sleeps whole), and each response is a sweep's
+        // every step sweeps at least once (no case sleeps whole), and the lecture's gases
+        // collide
         let sweeps = case["sweeps_per_step"].as_f64().unwrap();
         let responses = case["responses_per_step"].as_f64().unwrap();
-        assert!(sweeps >= 1.0 && responses >= 0.0, "{case}");
+        assert!(sweeps >= 1.0, "{case}");
+        if case["group"] == "lecture" {
+            assert!(responses > 0.0, "{case}");
+        }
         // the phases cover the step: together within the timed steps' wall time
         let sum: f64 = phases.iter().map(|p| p[1].as_f64().unwrap()).sum();
         let step = case["ms_per_step"].as_f64().unwrap();
