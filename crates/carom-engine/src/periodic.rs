@@ -91,6 +91,12 @@ impl Periodic {
         self.axes[axis]
     }
 
+    /// The period on each axis (0 on those that are not periodic), or all zero without
+    /// periodic axes (`None`).
+    pub fn periods(periodic: Option<&Periodic>) -> [f64; 3] {
+        periodic.map_or([0.0; 3], |p| p.length)
+    }
+
     /// The period on `axis` (0 when it is not periodic).
     #[inline]
     pub fn length(&self, axis: usize) -> f64 {
@@ -186,6 +192,48 @@ pub fn apply_shift<V: Vector>(x: V, shift: V) -> V {
     }
 }
 
+/// Which whole period a contact sees `x_j` through on each axis (-1, 0 or 1): what a shift of
+/// [`Periodic::shift`] holds (each of its components is `0` or `+-` the axis's period) in 3
+/// bytes instead of a vector, for the solver's rows to keep.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Wrap([i8; 3]);
+
+impl Wrap {
+    /// The wrap of `shift`, a [`Periodic::shift`] (or zero).
+    pub fn of<V: Vector>(shift: V) -> Self {
+        let mut wrap = [0i8; 3];
+        for (a, w) in wrap.iter_mut().enumerate().take(V::DIM) {
+            let s = shift.get(a);
+            *w = if s > 0.0 {
+                1
+            } else if s < 0.0 {
+                -1
+            } else {
+                0
+            };
+        }
+        Wrap(wrap)
+    }
+
+    /// The shift back, for periods `period` (see [`Periodic::periods`]): the very bits of the
+    /// [`Periodic::shift`] it was made from, and zero when it wraps no axis.
+    #[inline]
+    pub fn shift<V: Vector>(self, period: &[f64; 3]) -> V {
+        if self.0 == [0; 3] {
+            return V::ZERO;
+        }
+        let mut s = [0.0; 3];
+        for a in 0..V::DIM {
+            s[a] = match self.0[a] {
+                1 => period[a],
+                -1 => -period[a],
+                _ => 0.0,
+            };
+        }
+        V::from_slice(&s)
+    }
+}
+
 /// Wraps every position (see [`Periodic::wrap`]), on the thread pool when `parallel` (each
 /// particle's wrap is its own, so the result is the same either way).
 pub(crate) fn wrap_all<V: Vector>(periodic: &Periodic, parallel: bool, positions: &mut [V]) {
@@ -201,6 +249,33 @@ pub(crate) fn wrap_all<V: Vector>(periodic: &Periodic, parallel: bool, positions
 mod tests {
     use super::*;
     use glam::{DVec2, DVec3};
+
+    /// A row's 3-byte wrap gives back the very bits of the shift it was made from.
+    #[test]
+    fn a_wrap_gives_back_its_shift() {
+        let domain = Aabb::new(DVec3::new(-3.5, 0.25, -10.0), DVec3::new(6.0, 7.0, 10.0)).unwrap();
+        for axes in [
+            [true, false, true],
+            [true, true, true],
+            [false, true, false],
+        ] {
+            let p = Periodic::new(&domain, &axes).unwrap();
+            let period = Periodic::periods(Some(&p));
+            for (xi, xj) in [
+                (DVec3::new(-3.4, 0.3, -9.9), DVec3::new(5.9, 6.9, 9.9)),
+                (DVec3::new(5.9, 6.9, 9.9), DVec3::new(-3.4, 0.3, -9.9)),
+                (DVec3::new(1.0, 3.0, 0.0), DVec3::new(1.5, 3.5, 0.5)),
+            ] {
+                let shift: DVec3 = p.shift(xi, xj);
+                let back: DVec3 = Wrap::of(shift).shift(&period);
+                assert_eq!(
+                    back.to_array().map(f64::to_bits),
+                    shift.to_array().map(f64::to_bits)
+                );
+            }
+        }
+        assert_eq!(Wrap::of(DVec2::ZERO).shift::<DVec2>(&[0.0; 3]), DVec2::ZERO);
+    }
 
     fn unit_box() -> Periodic {
         let domain = Aabb::new(DVec2::new(-5.0, 0.0), DVec2::new(5.0, 4.0)).unwrap();

@@ -79,7 +79,8 @@ pub(super) fn read_row<V: Vector>(r: &mut Reader) -> (Row<V>, RowRecord<V>) {
         overlap,
         distance,
         // (split runs refuse periodic axes, so no row of theirs is shifted)
-        shift: V::ZERO,
+        wrap: Default::default(),
+        dimension: std::marker::PhantomData,
     };
     (row, record)
 }

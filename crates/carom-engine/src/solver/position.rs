@@ -20,12 +20,13 @@ fn clearly_apart<V: Vector>(delta: V, limit: f64) -> bool {
 #[inline]
 pub(super) fn separate_pair<V: Vector>(
     record: &RowRecord<V>,
+    period: &[f64; 3],
     xi: &mut V,
     xj: &mut V,
     depth: f64,
 ) -> Change {
     // (moving `x_j` moves its image by as much)
-    let image = record.image(*xj);
+    let image = record.image(*xj, period);
     if clearly_apart(*xi - image, record.reach() - depth * record.min_radius()) {
         return Change::Nothing;
     }
@@ -55,7 +56,7 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
     velocity: &mut [V],
     c: &mut Contacts<V>,
 ) -> f64 {
-    let (blocks, planes) = (c.blocks, c.planes);
+    let (blocks, planes, period) = (c.blocks, c.planes, c.period);
     // Pairs are left the slop deep: with the lecture's rule alone, a contact is one while the
     // pair overlaps, so it is still detected on the next step. Resting contacts are left there
     // too: moving them apart to touching (c2096ba) made every contact of a jammed 3D pile a
@@ -64,7 +65,7 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
     // the slop left: 1.0 %). A stack sinks by the slop at each contact instead (0.1 % of r).
     let depth = SLOP_FRACTION;
     let push_apart = |_: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
-        separate_pair(record, xi, xj, depth)
+        separate_pair(record, &period, xi, xj, depth)
     };
     let out_of_plane = |row: &mut PlaneRow<V>, x: &mut V| {
         let plane = &planes[row.plane as usize];
@@ -123,7 +124,7 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
                 out_of_all_planes(xj, record.radius[1]);
             }
         }
-        let image = record.image(*xj);
+        let image = record.image(*xj, &period);
         let overlap = if clearly_apart(*xi - image, record.reach()) {
             0.0
         } else {

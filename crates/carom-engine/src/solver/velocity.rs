@@ -299,11 +299,13 @@ pub(super) fn place<V: Vector, E: Exchange<V>>(
     h: f64,
     keep: bool,
 ) {
+    let period = c.period;
     let pairs = |row: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
         if keep {
             record.kept = row.impulse;
         }
-        row.place(record, *xi, *xj, h);
+        let xj = record.image(*xj, &period);
+        row.place(record, *xi, xj, h);
         Change::Nothing
     };
     let planes = c.planes;

@@ -355,6 +355,7 @@ impl<V: Vector> World<V> {
                 plane_contacts: &self.plane_contacts,
                 plane_rows: &mut self.plane_rows,
                 planes: &self.planes,
+                period: Periodic::periods(self.periodic.as_ref()),
                 blocks: &self.blocks,
                 work: WorkList {
                     stamps: Stamps::new(&mut self.stamps, &mut self.stamp_groups),

@@ -47,6 +47,8 @@ impl<V: Vector, T: Transport + ?Sized> Stepping<'_, '_, '_, V, T> {
             plane_contacts: &s.plane_contacts,
             plane_rows: &mut s.plane_rows,
             planes: &s.planes,
+            // (split runs refuse periodic axes)
+            period: [0.0; 3],
             blocks: &s.blocks,
             // (no work lists across processes: they would change the cost, not the result)
             work: WorkList {
