@@ -80,7 +80,7 @@ pub(crate) struct RowRecord<V> {
     /// `x_j + shift` (see [`RowRecord::image`] and [`crate::periodic`]). Whole periods per
     /// axis, fixed when the pair is found; none without periodic axes (and then `x_j` is used
     /// as it is, bit for bit). Kept as 3 bytes, not a vector: a record is 64 bytes in 2D and
-    /// 3D instead of 72 and 80 (at 10^6 falling discs, 4.4 bytes a particle of peak memory).
+    /// 3D instead of 72 and 80 (at 10^6 falling discs, 3.7 bytes a particle of peak memory).
     pub wrap: Wrap,
     /// The images are of the world's vectors.
     pub dimension: std::marker::PhantomData<V>,
