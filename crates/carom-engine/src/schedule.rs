@@ -106,10 +106,10 @@ impl From<bool> for Change {
 /// [`Change::Nothing`] must have changed nothing. (A rule that never reads the
 /// [`RowRecord`] never brings it from memory.)
 pub(crate) trait PairRule<V>:
-    Fn(&mut Row<V>, &mut RowRecord<V>, &mut V, &mut V) -> Change + Sync
+    Fn(&mut Row<V>, &mut RowRecord, &mut V, &mut V) -> Change + Sync
 {
 }
-impl<V, F: Fn(&mut Row<V>, &mut RowRecord<V>, &mut V, &mut V) -> Change + Sync> PairRule<V> for F {}
+impl<V, F: Fn(&mut Row<V>, &mut RowRecord, &mut V, &mut V) -> Change + Sync> PairRule<V> for F {}
 
 /// Rows a span of work owns: split in two at an index, or empty.
 pub(crate) trait Split: Default + Send + Sized {

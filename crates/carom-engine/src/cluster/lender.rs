@@ -33,7 +33,7 @@ pub(super) fn lender(partition: &Partition, rank: usize, parity: Option<usize>) 
 }
 
 /// Encodes a solver row.
-pub(super) fn write_row<V: Vector>(w: &mut Writer, row: &Row<V>, record: &RowRecord<V>) {
+pub(super) fn write_row<V: Vector>(w: &mut Writer, row: &Row<V>, record: &RowRecord) {
     w.vector(row.normal)
         .f64(record.mass[0])
         .f64(record.mass[1])
@@ -52,7 +52,7 @@ pub(super) fn write_row<V: Vector>(w: &mut Writer, row: &Row<V>, record: &RowRec
 }
 
 /// Decodes a solver row.
-pub(super) fn read_row<V: Vector>(r: &mut Reader) -> (Row<V>, RowRecord<V>) {
+pub(super) fn read_row<V: Vector>(r: &mut Reader) -> (Row<V>, RowRecord) {
     let normal = r.vector();
     let mass = [r.f64(), r.f64()];
     let inverse_mass = [r.f64(), r.f64()];
@@ -80,7 +80,6 @@ pub(super) fn read_row<V: Vector>(r: &mut Reader) -> (Row<V>, RowRecord<V>) {
         distance,
         // (split runs refuse periodic axes, so no row of theirs is shifted)
         wrap: Default::default(),
-        dimension: std::marker::PhantomData,
     };
     (row, record)
 }

@@ -19,7 +19,7 @@ fn clearly_apart<V: Vector>(delta: V, limit: f64) -> bool {
 /// Moves one overlapping pair apart down to `depth` times the smaller radius.
 #[inline]
 pub(super) fn separate_pair<V: Vector>(
-    record: &RowRecord<V>,
+    record: &RowRecord,
     period: &[f64; 3],
     xi: &mut V,
     xj: &mut V,
@@ -64,7 +64,7 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
     // sinking into itself (52 % of r deep at step 1600, 8000 spheres in a deep box 36 %; with
     // the slop left: 1.0 %). A stack sinks by the slop at each contact instead (0.1 % of r).
     let depth = SLOP_FRACTION;
-    let push_apart = |_: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
+    let push_apart = |_: &mut Row<V>, record: &mut RowRecord, xi: &mut V, xj: &mut V| {
         separate_pair(record, &period, xi, xj, depth)
     };
     let out_of_plane = |row: &mut PlaneRow<V>, x: &mut V| {
@@ -114,7 +114,7 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
             plane.push_out_in_place(x, r);
         }
     };
-    let finish = |_: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
+    let finish = |_: &mut Row<V>, record: &mut RowRecord, xi: &mut V, xj: &mut V| {
         // (a sleeping particle, of infinite mass, stays where it sleeps)
         if !planes.is_empty() {
             if !record.sleeps(0) {

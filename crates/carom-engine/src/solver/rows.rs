@@ -65,7 +65,7 @@ pub(crate) struct Row<V> {
 
 /// The part of a contact's row that the velocity sweeps never read (see [`Row`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(crate) struct RowRecord<V> {
+pub(crate) struct RowRecord {
     /// `(m_i, m_j)`, > 0; infinite for a sleeping particle (see [`moving_mass`]).
     pub mass: [f64; 2],
     /// `(r_i, r_j)`, > 0.
@@ -82,14 +82,12 @@ pub(crate) struct RowRecord<V> {
     /// as it is, bit for bit). Kept as 3 bytes, not a vector: a record is 64 bytes in 2D and
     /// 3D instead of 72 and 80 (at 10^6 falling discs, 3.7 bytes a particle of peak memory).
     pub wrap: Wrap,
-    /// The images are of the world's vectors.
-    pub dimension: std::marker::PhantomData<V>,
 }
 
 impl<V: Vector> Row<V> {
     /// The row of particles at `x`, radius `r` and mass `m`, for a step of `dt`.
     #[inline]
-    pub fn new(xi: V, xj: V, ri: f64, rj: f64, mi: f64, mj: f64, dt: f64) -> (Self, RowRecord<V>) {
+    pub fn new(xi: V, xj: V, ri: f64, rj: f64, mi: f64, mj: f64, dt: f64) -> (Self, RowRecord) {
         Self::across(xi, xj, V::ZERO, ri, rj, mi, mj, dt)
     }
 
@@ -106,7 +104,7 @@ impl<V: Vector> Row<V> {
         mi: f64,
         mj: f64,
         dt: f64,
-    ) -> (Self, RowRecord<V>) {
+    ) -> (Self, RowRecord) {
         let mut row = Self {
             inverse_mass: [1.0 / mi, 1.0 / mj],
             effective_mass: 1.0 / (1.0 / mi + 1.0 / mj),
@@ -126,7 +124,7 @@ impl<V: Vector> Row<V> {
     /// it: [`RowRecord::image`]) over a (sub)step `dt` (and the distance, in `record`). A row
     /// left out for the step (infinite allowance) stays out.
     #[inline]
-    pub fn place(&mut self, record: &mut RowRecord<V>, xi: V, xj: V, dt: f64) {
+    pub fn place(&mut self, record: &mut RowRecord, xi: V, xj: V, dt: f64) {
         if self.allowance == f64::INFINITY {
             return;
         }
@@ -153,11 +151,11 @@ impl<V: Vector> Row<V> {
     }
 }
 
-impl<V: Vector> RowRecord<V> {
+impl RowRecord {
     /// Where this row sees `j` from `i`: `x_j + shift` in a world of periods `period` (see
     /// [`crate::periodic::Periodic::periods`]), or `x_j` itself when there is no shift.
     #[inline]
-    pub fn image(&self, xj: V, period: &[f64; 3]) -> V {
+    pub fn image<V: Vector>(&self, xj: V, period: &[f64; 3]) -> V {
         apply_shift(xj, self.wrap.shift(period))
     }
 
@@ -193,7 +191,7 @@ pub(crate) struct Rows<V> {
     /// What the velocity sweeps read.
     pub row: Vec<Row<V>>,
     /// The rest.
-    pub record: Vec<RowRecord<V>>,
+    pub record: Vec<RowRecord>,
 }
 
 impl<V: Vector> Rows<V> {
@@ -223,7 +221,7 @@ impl<V: Vector> Rows<V> {
     }
 
     /// Appends one row.
-    pub fn push(&mut self, (row, record): (Row<V>, RowRecord<V>)) {
+    pub fn push(&mut self, (row, record): (Row<V>, RowRecord)) {
         self.row.push(row);
         self.record.push(record);
     }
@@ -249,7 +247,7 @@ pub(crate) struct RowsMut<'a, V> {
     /// What the velocity sweeps read.
     pub row: &'a mut [Row<V>],
     /// The rest.
-    pub record: &'a mut [RowRecord<V>],
+    pub record: &'a mut [RowRecord],
 }
 
 impl<V> Default for RowsMut<'_, V> {
@@ -277,7 +275,7 @@ impl<V: Vector> RowsMut<'_, V> {
     /// thread pool when `parallel` (each row's copy is its own: the same result either way).
     /// (On 10^6 falling discs: 4.5-5.7 ms a step on 2 threads, 6.9-8.5 ms serial.)
     pub fn keep_impulses(&mut self, parallel: bool) {
-        let keep = |(rows, records): (&[Row<V>], &mut [RowRecord<V>])| {
+        let keep = |(rows, records): (&[Row<V>], &mut [RowRecord])| {
             for (row, record) in rows.iter().zip(records) {
                 record.kept = row.impulse;
             }
@@ -295,7 +293,7 @@ impl<V: Vector> RowsMut<'_, V> {
     /// `parallel` (a maximum does not depend on the order it is taken in). (On 10^6 falling
     /// discs: 1.8-2.0 ms a step on 2 threads, 2.2-3.0 ms serial.)
     pub fn largest_overlap(&self, parallel: bool) -> f64 {
-        let overlap = |record: &RowRecord<V>| record.overlap;
+        let overlap = |record: &RowRecord| record.overlap;
         if parallel {
             self.record.par_iter().map(overlap).reduce(|| 0.0, f64::max)
         } else {
@@ -410,7 +408,7 @@ pub(crate) fn prepare_rows<V: Vector>(
     rows: &mut Rows<V>,
     pairs: &[Pair],
     parallel: bool,
-    row: impl Fn(Pair) -> (Row<V>, RowRecord<V>) + Sync,
+    row: impl Fn(Pair) -> (Row<V>, RowRecord) + Sync,
 ) {
     rows.row.resize(pairs.len(), Row::default());
     rows.record.resize(pairs.len(), RowRecord::default());

@@ -34,7 +34,7 @@ pub(super) enum Pass {
 #[inline]
 pub(super) fn lecture_pair<V: Vector>(
     row: &mut Row<V>,
-    record: &RowRecord<V>,
+    record: &RowRecord,
     vi: &mut V,
     vj: &mut V,
     k: f64,

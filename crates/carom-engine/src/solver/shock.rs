@@ -25,7 +25,7 @@ pub(super) fn shock<V: Vector, E: Exchange<V>>(
         c.blocks
             .every_plane(velocity, c.plane_contacts, c.plane_rows, &on_planes);
     }
-    let pairs = |row: &mut Row<V>, record: &mut RowRecord<V>, vi: &mut V, vj: &mut V| {
+    let pairs = |row: &mut Row<V>, record: &mut RowRecord, vi: &mut V, vj: &mut V| {
         if row.bounce > 0.0 {
             return Change::Nothing;
         }

@@ -232,7 +232,7 @@ pub(super) fn relax<V: Vector, E: Exchange<V>>(
     let k = settings.restitution;
     let resting = settings.resting_speed;
     let lecture_pairs = settings.lecture_pairs();
-    let pair_rule = |row: &mut Row<V>, record: &mut RowRecord<V>, vi: &mut V, vj: &mut V| {
+    let pair_rule = |row: &mut Row<V>, record: &mut RowRecord, vi: &mut V, vj: &mut V| {
         if lecture_pairs {
             lecture_pair(row, record, vi, vj, k).into()
         } else {
@@ -300,7 +300,7 @@ pub(super) fn place<V: Vector, E: Exchange<V>>(
     keep: bool,
 ) {
     let period = c.period;
-    let pairs = |row: &mut Row<V>, record: &mut RowRecord<V>, xi: &mut V, xj: &mut V| {
+    let pairs = |row: &mut Row<V>, record: &mut RowRecord, xi: &mut V, xj: &mut V| {
         if keep {
             record.kept = row.impulse;
         }
@@ -340,7 +340,7 @@ pub(super) fn classify<V: Vector, E: Exchange<V>>(
         return 0;
     }
     // The rows' allowances were made for the whole step; a substep closes a gap in less time.
-    let pairs = |row: &mut Row<V>, _: &mut RowRecord<V>, vi: &mut V, vj: &mut V| {
+    let pairs = |row: &mut Row<V>, _: &mut RowRecord, vi: &mut V, vj: &mut V| {
         let speed = -row.normal.dot(*vi - *vj);
         // An impact across a gap (a pair that would meet within the step) bounces too, when
         // the relax pass finds it meeting: as in Box2D, a speculative contact keeps the speed
@@ -373,7 +373,7 @@ pub(super) fn warm_start<V: Vector, E: Exchange<V>>(
     velocity: &mut [V],
     c: &mut Contacts<V>,
 ) {
-    let push = |row: &mut Row<V>, _: &mut RowRecord<V>, vi: &mut V, vj: &mut V| {
+    let push = |row: &mut Row<V>, _: &mut RowRecord, vi: &mut V, vj: &mut V| {
         if row.impulse > 0.0 {
             row.delivered += row.impulse;
             *vi += row.normal * (row.impulse * row.inverse_mass[0]);
