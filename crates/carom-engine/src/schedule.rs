@@ -14,7 +14,8 @@
 //! and plane contacts run block by block (one particle is never in two blocks). Inside a block,
 //! contacts go in sorted order. So the order of every response is fixed by the contact set and
 //! the slots alone: the same for any thread count, and the same whichever broad phase found the
-//! contacts. Running the blocks serially gives the very same bits.
+//! contacts. Running the blocks serially gives the very same bits. (How one parity's blocks are
+//! handed to the thread pool, two to a task, is `spans.rs`'s.)
 //!
 //! The same order runs across processes ([`crate::cluster`]): each process holds a run of
 //! whole blocks, and an `Exchange` lends it the particles of the next process's first block
@@ -33,8 +34,9 @@
 //! (`frontier.rs`) instead of scanning every contact, with the same result.
 
 use crate::broadphase::Pair;
-use crate::frontier::{Frontier, Stamps, Walk};
+use crate::frontier::{Frontier, Stamps};
 use crate::solver::{Row, RowRecord, RowsMut};
+use crate::spans::{split_run, PairWork, PlaneWork};
 use crate::vector::Vector;
 
 /// A particle touching a plane: `(slot, plane index)`.
@@ -46,7 +48,7 @@ pub(crate) struct Blocks {
     /// Slots per block (> 0).
     pub size: usize,
     /// `pairs[pair_start[b]..pair_start[b + 1]]` are block `b`'s contacts.
-    pair_start: Vec<usize>,
+    pub(crate) pair_start: Vec<usize>,
     /// The same for plane contacts.
     plane_start: Vec<usize>,
     /// Indices (into the pairs) of the contacts whose `j` is beyond the next block, ascending.
@@ -57,7 +59,7 @@ pub(crate) struct Blocks {
     /// Run blocks on the thread pool (otherwise serially; same result).
     parallel: bool,
     /// The blocks' contacts by particle, for the work lists (when indexed).
-    frontier: Frontier,
+    pub(crate) frontier: Frontier,
 }
 
 /// What one application of a rule did.
@@ -74,7 +76,7 @@ pub(crate) enum Change {
 impl Change {
     /// 1 when counted.
     #[inline]
-    fn count(self) -> u64 {
+    pub(crate) fn count(self) -> u64 {
         (self == Change::Counted) as u64
     }
 
@@ -144,13 +146,13 @@ impl Visit {
     /// Whether the contact of particles `i` and `j` is visited; `stamps` empty means no work
     /// list (every contact is).
     #[inline]
-    fn wants(self, stamps: &Stamps, i: usize, j: usize) -> bool {
+    pub(crate) fn wants(self, stamps: &Stamps, i: usize, j: usize) -> bool {
         stamps.is_empty() || stamps.get(i).max(stamps.get(j)) >= self.since
     }
 
     /// Records that the rule changed particles `i` and `j`.
     #[inline]
-    fn stamp(self, stamps: &mut Stamps, i: usize, j: usize) {
+    pub(crate) fn stamp(self, stamps: &mut Stamps, i: usize, j: usize) {
         if self.now != 0 && !stamps.is_empty() {
             stamps.set(i, self.now);
             stamps.set(j, self.now);
@@ -296,21 +298,13 @@ impl Blocks {
         // Span c: blocks parity + 2c and the next, as slots and as rows.
         let slot = |c: usize| ((parity + 2 * c) * size).min(n);
         let row = |c: usize| self.pair_start[(parity + 2 * c).min(count)];
-        let work = |c: usize,
-                    slot_base: usize,
-                    slots: &mut [V],
-                    stamps: Stamps,
-                    row_base: usize,
-                    rows: RowsMut<V>| {
-            let span = Span {
-                block: parity + 2 * c,
-                slot_base,
-                slots,
-                stamps,
-                row_base,
-                rows,
-            };
-            self.run_block(span, visit, pairs, reverse, rule)
+        let work = PairWork {
+            blocks: self,
+            first_block: parity,
+            visit,
+            pairs,
+            reverse,
+            rule,
         };
         let (s0, r0) = (slot(0), row(0));
         split_run(
@@ -323,86 +317,6 @@ impl Blocks {
             rows.split_at_mut(row(spans)).0.split_at_mut(r0).1,
             &work,
         )
-    }
-
-    /// One block's pairs in `span` (see [`Blocks::run_parity`]): the changed contacts through
-    /// the frontier when there is one (see [`crate::frontier`]), scanning otherwise or past
-    /// where the frontier stops. Returns how many applications changed something.
-    fn run_block<V: Vector>(
-        &self,
-        span: Span<V>,
-        visit: Visit,
-        pairs: &[Pair],
-        reverse: bool,
-        rule: &impl PairRule<V>,
-    ) -> u64 {
-        let Span {
-            block,
-            slot_base,
-            slots,
-            mut stamps,
-            row_base,
-            rows,
-        } = span;
-        let limit = slots.len();
-        let mut mine = self.pair_start[block]..self.pair_start[block + 1];
-        let mut changed = 0;
-        if visit.since > 0 && !stamps.is_empty() && self.frontier.ready() {
-            let walked = self.frontier.walk(
-                block,
-                mine.clone(),
-                reverse,
-                &mut stamps,
-                visit.since,
-                |k, stamps| {
-                    let (i, j) = pairs[k];
-                    let (i, j) = (i as usize - slot_base, j as usize - slot_base);
-                    let (a, b) = pair_mut(slots, i, j);
-                    let change = rule(
-                        &mut rows.row[k - row_base],
-                        &mut rows.record[k - row_base],
-                        a,
-                        b,
-                    );
-                    if change == Change::Nothing {
-                        return None;
-                    }
-                    visit.stamp(stamps, i, j);
-                    changed += change.count();
-                    Some((i, j))
-                },
-            );
-            match walked {
-                Walk::Done => return changed,
-                Walk::ScanPast(None) => {}
-                Walk::ScanPast(Some(k)) if reverse => mine.end = k,
-                Walk::ScanPast(Some(k)) => mine.start = k + 1,
-            }
-        }
-        let mut one = |k: usize| {
-            let (i, j) = pairs[k];
-            let (i, j) = (i as usize - slot_base, j as usize - slot_base);
-            // (pairs reaching beyond the span are leftovers)
-            if j < limit && visit.wants(&stamps, i, j) {
-                let (a, b) = pair_mut(slots, i, j);
-                let change = rule(
-                    &mut rows.row[k - row_base],
-                    &mut rows.record[k - row_base],
-                    a,
-                    b,
-                );
-                if change != Change::Nothing {
-                    visit.stamp(&mut stamps, i, j);
-                    changed += change.count();
-                }
-            }
-        };
-        if reverse {
-            mine.rev().for_each(&mut one);
-        } else {
-            mine.for_each(&mut one);
-        }
-        changed
     }
 
     /// Applies `rule` to every plane contact (`plane_contacts[k]` with row `plane_rows[k]`)
@@ -423,24 +337,10 @@ impl Blocks {
         let slot = |b: usize| (b * size).min(n);
         let row = |b: usize| self.plane_start[b.min(count)];
         let all = row(count);
-        let work = |_: usize,
-                    slot_base: usize,
-                    slots: &mut [V],
-                    mut stamps: Stamps,
-                    row_base: usize,
-                    rows: &mut [R]| {
-            let mut changed = 0;
-            for (k, r) in rows.iter_mut().enumerate() {
-                let i = plane_contacts[row_base + k].0 as usize - slot_base;
-                if visit.wants(&stamps, i, i) {
-                    let change = rule(r, &mut slots[i]);
-                    if change != Change::Nothing {
-                        visit.stamp(&mut stamps, i, i);
-                        changed += change.count();
-                    }
-                }
-            }
-            changed
+        let work = PlaneWork {
+            visit,
+            plane_contacts,
+            rule,
         };
         split_run(
             self.parallel,
@@ -471,83 +371,6 @@ impl Blocks {
             rule,
         )
     }
-}
-
-/// Runs `work(c, slot_base, slots, stamps, row_base, rows)` for every span `c` in `spans`,
-/// where span `c` owns `data[slot(c)..slot(c + 1)]` (and the same stamps, unless there are
-/// none) and `rows[row(c)..row(c + 1)]` (both boundaries ascending; `data`, `stamps` and `rows`
-/// start at span `spans.start`'s boundaries), splitting in halves on the thread pool when
-/// `parallel`. The spans are disjoint, so the result does not depend on how they are scheduled.
-#[allow(clippy::too_many_arguments)]
-fn split_run<T: Send, R: Split>(
-    parallel: bool,
-    spans: std::ops::Range<usize>,
-    slot: &(impl Fn(usize) -> usize + Sync),
-    row: &(impl Fn(usize) -> usize + Sync),
-    data: &mut [T],
-    stamps: Stamps,
-    rows: R,
-    work: &(impl Fn(usize, usize, &mut [T], Stamps, usize, R) -> u64 + Sync),
-) -> u64 {
-    if !parallel || spans.len() <= 1 {
-        let mut total = 0;
-        let (mut data, mut stamps, mut rows) = (data, stamps, rows);
-        for c in spans {
-            let (s, r) = (slot(c), row(c));
-            let (len, count) = (slot(c + 1) - s, row(c + 1) - r);
-            let (here, rest) = std::mem::take(&mut data).split_at_mut(len);
-            let (here_stamps, rest_stamps) = std::mem::take(&mut stamps).split_at(len);
-            let (here_rows, rest_rows) = std::mem::take(&mut rows).split_at_mut(count);
-            total += work(c, s, here, here_stamps, r, here_rows);
-            (data, stamps, rows) = (rest, rest_stamps, rest_rows);
-        }
-        return total;
-    }
-    let (s0, r0) = (slot(spans.start), row(spans.start));
-    let mid = spans.start + spans.len() / 2;
-    let (left_data, right_data) = data.split_at_mut(slot(mid) - s0);
-    let (left_stamps, right_stamps) = stamps.split_at(slot(mid) - s0);
-    let (left_rows, right_rows) = rows.split_at_mut(row(mid) - r0);
-    let (a, b) = rayon::join(
-        || {
-            split_run(
-                true,
-                spans.start..mid,
-                slot,
-                row,
-                left_data,
-                left_stamps,
-                left_rows,
-                work,
-            )
-        },
-        || {
-            split_run(
-                true,
-                mid..spans.end,
-                slot,
-                row,
-                right_data,
-                right_stamps,
-                right_rows,
-                work,
-            )
-        },
-    );
-    a + b
-}
-
-/// One block's share of a parity run: its span of slots (the block and the next), their
-/// stamps, and the rows of the block's pairs.
-struct Span<'a, V> {
-    block: usize,
-    /// The span's first slot.
-    slot_base: usize,
-    slots: &'a mut [V],
-    stamps: Stamps<'a>,
-    /// Index of the first row in `rows`.
-    row_base: usize,
-    rows: RowsMut<'a, V>,
 }
 
 /// `&mut s[i]` and `&mut s[j]` at once, for `i < j`.

@@ -1,0 +1,503 @@
+//! How one parity of a sweep runs on the thread pool (see [`crate::schedule`]): its spans
+//! (a block and the next) are handed out two to a task, and each task runs its two blocks'
+//! contacts side by side.
+//!
+//! Why two: a block's sweep is a chain, each contact of a particle waiting on the velocity the
+//! contact before it wrote, and the core idles while it waits. Two blocks of one parity share
+//! no slot and no row, so any interleaving of their contacts gives the bits of running them
+//! one after the other, and two chains side by side keep the core busy. (`carom bench --case`,
+//! the dense 10^6 pile: 0.90x the step; see docs/benchmarks.md.)
+
+use crate::broadphase::Pair;
+use crate::frontier::{Stamps, Walk};
+use crate::schedule::{pair_mut, Blocks, Change, PairRule, PlaneContact, PlaneRule, Split, Visit};
+use crate::solver::RowsMut;
+use crate::vector::Vector;
+use std::ops::Range;
+
+impl Blocks {
+    /// Two blocks' pairs (see [`Blocks::run_parity`]), or one block's when `b` is `None`: each
+    /// block's changed contacts through the frontier when there is one (see
+    /// [`crate::frontier`]), scanning otherwise or past where the frontier stops. Returns how
+    /// many applications changed something.
+    /// The two blocks' scans go contact by contact in turn (see the module notes).
+    #[allow(clippy::too_many_arguments)]
+    fn run_blocks<V: Vector>(
+        &self,
+        mut a: Span<V>,
+        b: Option<Span<V>>,
+        visit: Visit,
+        pairs: &[Pair],
+        reverse: bool,
+        rule: &impl PairRule<V>,
+    ) -> u64 {
+        let (mut changed, mut scan_a) = self.walk_block(&mut a, visit, pairs, reverse, rule);
+        let Some(mut b) = b else {
+            return changed + scan(&mut a, scan_a, visit, pairs, reverse, rule);
+        };
+        let (walked, mut scan_b) = self.walk_block(&mut b, visit, pairs, reverse, rule);
+        changed += walked;
+        let next = |r: &mut Range<usize>| if reverse { r.next_back() } else { r.next() };
+        loop {
+            match (next(&mut scan_a), next(&mut scan_b)) {
+                (Some(ka), Some(kb)) => {
+                    changed += apply(&mut a, ka, visit, pairs, rule);
+                    changed += apply(&mut b, kb, visit, pairs, rule);
+                }
+                (Some(k), None) => {
+                    changed += apply(&mut a, k, visit, pairs, rule);
+                    return changed + scan(&mut a, scan_a, visit, pairs, reverse, rule);
+                }
+                (None, Some(k)) => {
+                    changed += apply(&mut b, k, visit, pairs, rule);
+                    return changed + scan(&mut b, scan_b, visit, pairs, reverse, rule);
+                }
+                (None, None) => return changed,
+            }
+        }
+    }
+
+    /// The frontier's part of one block's sweep (see [`Blocks::run_blocks`]): how many of its
+    /// applications changed something, and the block's contacts left to scan.
+    fn walk_block<V: Vector>(
+        &self,
+        span: &mut Span<V>,
+        visit: Visit,
+        pairs: &[Pair],
+        reverse: bool,
+        rule: &impl PairRule<V>,
+    ) -> (u64, Range<usize>) {
+        let block = span.block;
+        let mut mine = self.pair_start[block]..self.pair_start[block + 1];
+        let mut changed = 0;
+        if visit.since > 0 && !span.stamps.is_empty() && self.frontier.ready() {
+            let Span {
+                slot_base,
+                slots,
+                stamps,
+                row_base,
+                rows,
+                ..
+            } = span;
+            let (slot_base, row_base) = (*slot_base, *row_base);
+            let walked = self.frontier.walk(
+                block,
+                mine.clone(),
+                reverse,
+                stamps,
+                visit.since,
+                |k, stamps| {
+                    let (i, j) = pairs[k];
+                    let (i, j) = (i as usize - slot_base, j as usize - slot_base);
+                    let (a, b) = pair_mut(slots, i, j);
+                    let change = rule(
+                        &mut rows.row[k - row_base],
+                        &mut rows.record[k - row_base],
+                        a,
+                        b,
+                    );
+                    if change == Change::Nothing {
+                        return None;
+                    }
+                    visit.stamp(stamps, i, j);
+                    changed += change.count();
+                    Some((i, j))
+                },
+            );
+            match walked {
+                Walk::Done => return (changed, 0..0),
+                Walk::ScanPast(None) => {}
+                Walk::ScanPast(Some(k)) if reverse => mine.end = k,
+                Walk::ScanPast(Some(k)) => mine.start = k + 1,
+            }
+        }
+        (changed, mine)
+    }
+}
+
+/// Contact `k` of `span`'s block in a scan: the rule, when `visit` wants the contact and it
+/// lies within the span (pairs reaching beyond it are leftovers). Returns 1 when counted.
+#[inline(always)]
+fn apply<V: Vector>(
+    span: &mut Span<V>,
+    k: usize,
+    visit: Visit,
+    pairs: &[Pair],
+    rule: &impl PairRule<V>,
+) -> u64 {
+    let (i, j) = pairs[k];
+    let (i, j) = (i as usize - span.slot_base, j as usize - span.slot_base);
+    if j >= span.slots.len() || !visit.wants(&span.stamps, i, j) {
+        return 0;
+    }
+    let (a, b) = pair_mut(span.slots, i, j);
+    let r = k - span.row_base;
+    let change = rule(&mut span.rows.row[r], &mut span.rows.record[r], a, b);
+    if change == Change::Nothing {
+        return 0;
+    }
+    visit.stamp(&mut span.stamps, i, j);
+    change.count()
+}
+
+/// [`apply`] to every contact of `range`, in the sweep's direction.
+fn scan<V: Vector>(
+    span: &mut Span<V>,
+    range: Range<usize>,
+    visit: Visit,
+    pairs: &[Pair],
+    reverse: bool,
+    rule: &impl PairRule<V>,
+) -> u64 {
+    let one = |k| apply(span, k, visit, pairs, rule);
+    if reverse {
+        range.rev().map(one).sum()
+    } else {
+        range.map(one).sum()
+    }
+}
+
+/// One span of a parity run as [`split_run`] hands it out: its number, its first slot, its
+/// slots and their stamps, the index of its first row, and its rows.
+pub(crate) struct Part<'a, T, R> {
+    span: usize,
+    slot_base: usize,
+    data: &'a mut [T],
+    stamps: Stamps<'a>,
+    row_base: usize,
+    rows: R,
+}
+
+/// What a parity run does with its spans, two at a time (see [`split_run`]).
+pub(crate) trait SpanWork<T, R>: Sync {
+    /// Runs span `a` and, when there is one, span `b` (disjoint from `a`); returns how many
+    /// applications changed something.
+    fn run(&self, a: Part<T, R>, b: Option<Part<T, R>>) -> u64;
+}
+
+/// The pair rule over the spans of one parity (see [`Blocks::run_parity`]).
+pub(crate) struct PairWork<'w, F> {
+    pub blocks: &'w Blocks,
+    /// The block of span 0.
+    pub first_block: usize,
+    pub visit: Visit,
+    pub pairs: &'w [Pair],
+    pub reverse: bool,
+    pub rule: &'w F,
+}
+
+impl<F> PairWork<'_, F> {
+    fn span<'p, V>(&self, part: Part<'p, V, RowsMut<'p, V>>) -> Span<'p, V> {
+        Span {
+            block: self.first_block + 2 * part.span,
+            slot_base: part.slot_base,
+            slots: part.data,
+            stamps: part.stamps,
+            row_base: part.row_base,
+            rows: part.rows,
+        }
+    }
+}
+
+impl<'w, V: Vector, F: PairRule<V>> SpanWork<V, RowsMut<'_, V>> for PairWork<'w, F> {
+    fn run(&self, a: Part<V, RowsMut<V>>, b: Option<Part<V, RowsMut<V>>>) -> u64 {
+        let b = b.map(|b| self.span(b));
+        self.blocks.run_blocks(
+            self.span(a),
+            b,
+            self.visit,
+            self.pairs,
+            self.reverse,
+            self.rule,
+        )
+    }
+}
+
+/// The plane rule over blocks (see [`Blocks::run_planes`]).
+pub(crate) struct PlaneWork<'w, F> {
+    pub visit: Visit,
+    pub plane_contacts: &'w [PlaneContact],
+    pub rule: &'w F,
+}
+
+impl<'w, V: Send, R: Send, F: PlaneRule<V, R>> SpanWork<V, &mut [R]> for PlaneWork<'w, F> {
+    fn run(&self, a: Part<V, &mut [R]>, b: Option<Part<V, &mut [R]>>) -> u64 {
+        let one = |part: Part<V, &mut [R]>| {
+            let Part {
+                slot_base,
+                data: slots,
+                mut stamps,
+                row_base,
+                rows,
+                ..
+            } = part;
+            let mut changed = 0;
+            for (k, r) in rows.iter_mut().enumerate() {
+                let i = self.plane_contacts[row_base + k].0 as usize - slot_base;
+                if self.visit.wants(&stamps, i, i) {
+                    let change = (self.rule)(r, &mut slots[i]);
+                    if change != Change::Nothing {
+                        self.visit.stamp(&mut stamps, i, i);
+                        changed += change.count();
+                    }
+                }
+            }
+            changed
+        };
+        one(a) + b.map_or(0, one)
+    }
+}
+
+/// Spans in a parallel run from which its tasks take two spans each (see [`Blocks::run_blocks`]).
+const PAIR_SPANS_FROM: usize = 8;
+
+/// Runs `work` on the spans `spans` of a parity run, two at a time (the last alone when their
+/// number is odd): span `c` holds the slots `slot(c)..slot(c + 1)` of `data` and the rows
+/// `row(c)..row(c + 1)`, counted from `slot(spans.start)` and `row(spans.start)`. On the thread
+/// pool when `parallel`, by halves; serially otherwise. Returns the sum of what `work` returns.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn split_run<T: Send, R: Split>(
+    parallel: bool,
+    spans: std::ops::Range<usize>,
+    slot: &(impl Fn(usize) -> usize + Sync),
+    row: &(impl Fn(usize) -> usize + Sync),
+    data: &mut [T],
+    stamps: Stamps,
+    rows: R,
+    work: &impl SpanWork<T, R>,
+) -> u64 {
+    // (two spans to a task only when there are enough tasks to share out: 5000 discs have
+    // five blocks, and the lecture pile took 1.1x as long with its spans paired)
+    let paired = spans.len() >= PAIR_SPANS_FROM || !parallel;
+    split_run_in(parallel, paired, spans, slot, row, data, stamps, rows, work)
+}
+
+/// [`split_run`], pairing spans or not as `paired` says.
+#[allow(clippy::too_many_arguments)]
+fn split_run_in<T: Send, R: Split>(
+    parallel: bool,
+    paired: bool,
+    spans: std::ops::Range<usize>,
+    slot: &(impl Fn(usize) -> usize + Sync),
+    row: &(impl Fn(usize) -> usize + Sync),
+    data: &mut [T],
+    stamps: Stamps,
+    rows: R,
+    work: &impl SpanWork<T, R>,
+) -> u64 {
+    if !parallel || spans.len() <= 1 + paired as usize {
+        let mut total = 0;
+        let (mut data, mut stamps, mut rows) = (data, stamps, rows);
+        let mut take = |c: usize| {
+            let (s, r) = (slot(c), row(c));
+            let (len, count) = (slot(c + 1) - s, row(c + 1) - r);
+            let (here, rest) = std::mem::take(&mut data).split_at_mut(len);
+            let (here_stamps, rest_stamps) = std::mem::take(&mut stamps).split_at(len);
+            let (here_rows, rest_rows) = std::mem::take(&mut rows).split_at_mut(count);
+            (data, stamps, rows) = (rest, rest_stamps, rest_rows);
+            Part {
+                span: c,
+                slot_base: s,
+                data: here,
+                stamps: here_stamps,
+                row_base: r,
+                rows: here_rows,
+            }
+        };
+        let mut c = spans.start;
+        while c < spans.end {
+            let a = take(c);
+            let b = (c + 1 < spans.end).then(|| take(c + 1));
+            total += work.run(a, b);
+            c += 2;
+        }
+        return total;
+    }
+    let (s0, r0) = (slot(spans.start), row(spans.start));
+    // (an even number of spans on the left, so that the pairs are the same however the run
+    // is split: the results are the same either way, the cost is not)
+    let half = spans.len() / 2;
+    let mid = spans.start
+        + if paired {
+            half.next_multiple_of(2)
+        } else {
+            half
+        };
+    let (left_data, right_data) = data.split_at_mut(slot(mid) - s0);
+    let (left_stamps, right_stamps) = stamps.split_at(slot(mid) - s0);
+    let (left_rows, right_rows) = rows.split_at_mut(row(mid) - r0);
+    let (a, b) = rayon::join(
+        || {
+            split_run_in(
+                true,
+                paired,
+                spans.start..mid,
+                slot,
+                row,
+                left_data,
+                left_stamps,
+                left_rows,
+                work,
+            )
+        },
+        || {
+            split_run_in(
+                true,
+                paired,
+                mid..spans.end,
+                slot,
+                row,
+                right_data,
+                right_stamps,
+                right_rows,
+                work,
+            )
+        },
+    );
+    a + b
+}
+
+/// One block's share of a parity run: its span of slots (the block and the next), their
+/// stamps, and the rows of the block's pairs.
+struct Span<'a, V> {
+    block: usize,
+    /// The span's first slot.
+    slot_base: usize,
+    slots: &'a mut [V],
+    stamps: Stamps<'a>,
+    /// Index of the first row in `rows`.
+    row_base: usize,
+    rows: RowsMut<'a, V>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::schedule::Alone;
+    use crate::solver::{Row, RowRecord};
+    use glam::DVec2;
+
+    /// A rule whose result depends on the order of its applications (as the solver's do).
+    fn mix(row: &mut Row<DVec2>, _: &mut RowRecord, a: &mut DVec2, b: &mut DVec2) -> Change {
+        let (x, y) = (*a, *b);
+        *a = x * 0.75 + y * 0.25 + DVec2::new(1e-3, 0.0);
+        *b = y * 0.75 + x * 0.25 - DVec2::new(0.0, 1e-3);
+        row.impulse += a.x;
+        Change::Counted
+    }
+
+    /// `n` slots in blocks of `size` with contacts reaching up to `reach` slots ahead (some
+    /// past the next block: leftovers), sorted.
+    fn contacts(n: usize, reach: usize) -> Vec<Pair> {
+        let mut state = 7u64;
+        let mut next = |m: usize| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) as usize % m
+        };
+        let mut pairs: Vec<Pair> = (0..3 * n)
+            .map(|_| {
+                let i = next(n);
+                let j = (i + 1 + next(reach)).min(n - 1);
+                (i as u32, j as u32)
+            })
+            .filter(|&(i, j)| i < j)
+            .collect();
+        pairs.sort_unstable();
+        pairs.dedup();
+        pairs
+    }
+
+    /// The values after one sweep of `mix`, the blocks planned with `parallel`.
+    fn sweep(n: usize, size: usize, pairs: &[Pair], parallel: bool, reverse: bool) -> Vec<u64> {
+        let mut blocks = Blocks::default();
+        blocks.plan(n, size, pairs, &[], parallel, 0);
+        let mut data: Vec<DVec2> = (0..n).map(|i| DVec2::new(i as f64, -(i as f64))).collect();
+        let (mut row, mut record) = (
+            vec![Row::default(); pairs.len()],
+            vec![RowRecord::default(); pairs.len()],
+        );
+        let rows = RowsMut {
+            row: &mut row,
+            record: &mut record,
+        };
+        blocks.sweep_pairs(
+            &mut Alone,
+            &mut data,
+            &mut Stamps::none(),
+            Visit::ALL,
+            pairs,
+            rows,
+            reverse,
+            &mix,
+        );
+        let values = data.iter().flat_map(|v| [v.x.to_bits(), v.y.to_bits()]);
+        values
+            .chain(row.iter().map(|r| r.impulse.to_bits()))
+            .collect()
+    }
+
+    /// The schedule of the module notes, one contact after another: even blocks, odd blocks,
+    /// each forwards or backwards, then the leftovers forwards.
+    fn by_the_notes(n: usize, size: usize, pairs: &[Pair], reverse: bool) -> Vec<u64> {
+        let mut data: Vec<DVec2> = (0..n).map(|i| DVec2::new(i as f64, -(i as f64))).collect();
+        let (mut row, mut record) = (
+            vec![Row::default(); pairs.len()],
+            vec![RowRecord::default(); pairs.len()],
+        );
+        let blocks = n.div_ceil(size);
+        let mut apply = |k: usize| {
+            let (i, j) = (pairs[k].0 as usize, pairs[k].1 as usize);
+            let (a, b) = pair_mut(&mut data, i, j);
+            mix(&mut row[k], &mut record[k], a, b);
+        };
+        let mut leftovers = Vec::new();
+        for parity in 0..2 {
+            for b in (parity..blocks).step_by(2) {
+                let mut mine: Vec<usize> = (0..pairs.len())
+                    .filter(|&k| pairs[k].0 as usize / size == b)
+                    .collect();
+                if reverse {
+                    mine.reverse();
+                }
+                for k in mine {
+                    if (pairs[k].1 as usize) < (b + 2) * size {
+                        apply(k);
+                    } else if parity == b % 2 && !leftovers.contains(&k) {
+                        leftovers.push(k);
+                    }
+                }
+            }
+        }
+        leftovers.sort_unstable();
+        leftovers.into_iter().for_each(&mut apply);
+        let values = data.iter().flat_map(|v| [v.x.to_bits(), v.y.to_bits()]);
+        values
+            .chain(row.iter().map(|r| r.impulse.to_bits()))
+            .collect()
+    }
+
+    /// Blocks two to a task (many blocks) and one to a task (few) on the thread pool, and
+    /// serially, all give the bits of the schedule the module notes state.
+    #[test]
+    fn paired_spans_keep_the_order_of_the_notes() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        for (n, size) in [(4096, 64), (1000, 256), (300, 64)] {
+            let pairs = contacts(n, 3 * size / 2);
+            for reverse in [false, true] {
+                let expected = by_the_notes(n, size, &pairs, reverse);
+                for parallel in [true, false] {
+                    let got = pool.install(|| sweep(n, size, &pairs, parallel, reverse));
+                    assert!(
+                        got == expected,
+                        "n {n}, size {size}, parallel {parallel}, reverse {reverse}"
+                    );
+                }
+            }
+        }
+    }
+}
