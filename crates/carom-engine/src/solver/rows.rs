@@ -116,22 +116,24 @@ impl<V: Vector> Row<V> {
             wrap: Wrap::of(shift),
             ..RowRecord::default()
         };
-        row.place(&mut record, xi, apply_shift(xj, shift), dt);
+        if let Some(distance) = row.place(&record, xi, apply_shift(xj, shift), dt) {
+            record.distance = distance;
+        }
         (row, record)
     }
 
     /// Normal, detection and allowance for particles at `xi` and `xj` (`j` as this row sees
-    /// it: [`RowRecord::image`]) over a (sub)step `dt` (and the distance, in `record`). A row
-    /// left out for the step (infinite allowance) stays out.
+    /// it: [`RowRecord::image`]) over a (sub)step `dt`; returns the distance, or `None` for a
+    /// row left out for the step (infinite allowance), which stays out. (The record is only
+    /// read: a re-placing that does not keep the distance leaves the record's memory clean.)
     #[inline]
-    pub fn place(&mut self, record: &mut RowRecord, xi: V, xj: V, dt: f64) {
+    pub fn place(&mut self, record: &RowRecord, xi: V, xj: V, dt: f64) -> Option<f64> {
         if self.allowance == f64::INFINITY {
-            return;
+            return None;
         }
         let (normal, distance) = contact_normal(xi, xj);
         let [ri, rj] = record.radius;
         self.normal = normal;
-        record.distance = distance;
         self.touching = distance > 0.0 && is_overlapping(xi, xj, ri, rj);
         // Within the slop of touching, a contact may not close in: the position phase opens
         // and closes such hairline gaps every step, and letting them turn into approach speeds
@@ -141,6 +143,7 @@ impl<V: Vector> Row<V> {
         } else {
             f64::INFINITY
         };
+        Some(distance)
     }
 
     /// True when this pair counts as a collision this step: it answered an approach with the

@@ -301,11 +301,19 @@ pub(super) fn place<V: Vector, E: Exchange<V>>(
 ) {
     let period = c.period;
     let pairs = |row: &mut Row<V>, record: &mut RowRecord, xi: &mut V, xj: &mut V| {
+        let xj = record.image(*xj, &period);
+        // (the step's tally reads the distance where the row was last placed: this is that
+        // place when it keeps or when the row leaves the step here. Other re-placings leave the
+        // record unwritten, which saves writing its memory back: 10^6 falling discs' three
+        // re-placings took 12.3 ms a step)
+        if let Some(distance) = row.place(record, *xi, xj, h) {
+            if keep || row.allowance == f64::INFINITY {
+                record.distance = distance;
+            }
+        }
         if keep {
             record.kept = row.impulse;
         }
-        let xj = record.image(*xj, &period);
-        row.place(record, *xi, xj, h);
         Change::Nothing
     };
     let planes = c.planes;
