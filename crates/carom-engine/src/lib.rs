@@ -59,7 +59,6 @@ pub mod response;
 pub mod schedule;
 pub mod sleep;
 pub mod solver;
-mod spans;
 pub mod step;
 pub mod theory;
 pub mod timing;

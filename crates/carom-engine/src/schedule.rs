@@ -36,8 +36,10 @@
 use crate::broadphase::Pair;
 use crate::frontier::{Frontier, Stamps};
 use crate::solver::{Row, RowRecord, RowsMut};
-use crate::spans::{split_run, PairWork, PlaneWork};
 use crate::vector::Vector;
+use spans::{split_run, PairWork, PlaneWork};
+
+mod spans;
 
 /// A particle touching a plane: `(slot, plane index)`.
 pub type PlaneContact = (u32, u32);
@@ -48,7 +50,7 @@ pub(crate) struct Blocks {
     /// Slots per block (> 0).
     pub size: usize,
     /// `pairs[pair_start[b]..pair_start[b + 1]]` are block `b`'s contacts.
-    pub(crate) pair_start: Vec<usize>,
+    pair_start: Vec<usize>,
     /// The same for plane contacts.
     plane_start: Vec<usize>,
     /// Indices (into the pairs) of the contacts whose `j` is beyond the next block, ascending.
@@ -59,7 +61,7 @@ pub(crate) struct Blocks {
     /// Run blocks on the thread pool (otherwise serially; same result).
     parallel: bool,
     /// The blocks' contacts by particle, for the work lists (when indexed).
-    pub(crate) frontier: Frontier,
+    frontier: Frontier,
 }
 
 /// What one application of a rule did.
@@ -76,7 +78,7 @@ pub(crate) enum Change {
 impl Change {
     /// 1 when counted.
     #[inline]
-    pub(crate) fn count(self) -> u64 {
+    fn count(self) -> u64 {
         (self == Change::Counted) as u64
     }
 
@@ -146,13 +148,13 @@ impl Visit {
     /// Whether the contact of particles `i` and `j` is visited; `stamps` empty means no work
     /// list (every contact is).
     #[inline]
-    pub(crate) fn wants(self, stamps: &Stamps, i: usize, j: usize) -> bool {
+    fn wants(self, stamps: &Stamps, i: usize, j: usize) -> bool {
         stamps.is_empty() || stamps.get(i).max(stamps.get(j)) >= self.since
     }
 
     /// Records that the rule changed particles `i` and `j`.
     #[inline]
-    pub(crate) fn stamp(self, stamps: &mut Stamps, i: usize, j: usize) {
+    fn stamp(self, stamps: &mut Stamps, i: usize, j: usize) {
         if self.now != 0 && !stamps.is_empty() {
             stamps.set(i, self.now);
             stamps.set(j, self.now);
@@ -300,7 +302,7 @@ impl Blocks {
         let row = |c: usize| self.pair_start[(parity + 2 * c).min(count)];
         let work = PairWork {
             blocks: self,
-            first_block: parity,
+            parity,
             visit,
             pairs,
             reverse,

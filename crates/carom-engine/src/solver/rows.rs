@@ -74,7 +74,8 @@ pub(crate) struct RowRecord {
     pub kept: f64,
     /// Overlap at the end of the step as a fraction of `min_radius` (0 when apart).
     pub overlap: f64,
-    /// `|x_i - x_j|` where the contact was last placed (length).
+    /// `|x_i - x_j|` where the contact was last placed (length), once the velocity phase is
+    /// over (the re-placings between substeps do not write it: see `velocity::place`).
     pub distance: f64,
     /// What `j` is seen through across periodic seams: every rule that reads positions uses
     /// `x_j + shift` (see [`RowRecord::image`] and [`crate::periodic`]). Whole periods per
@@ -127,6 +128,7 @@ impl<V: Vector> Row<V> {
     /// row left out for the step (infinite allowance), which stays out. (The record is only
     /// read: a re-placing that does not keep the distance leaves the record's memory clean.)
     #[inline]
+    #[must_use = "the distance is the caller's to keep"]
     pub fn place(&mut self, record: &RowRecord, xi: V, xj: V, dt: f64) -> Option<f64> {
         if self.allowance == f64::INFINITY {
             return None;

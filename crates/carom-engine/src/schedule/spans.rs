@@ -1,16 +1,19 @@
-//! How one parity of a sweep runs on the thread pool (see [`crate::schedule`]): its spans
-//! (a block and the next) are handed out two to a task, and each task runs its two blocks'
-//! contacts side by side.
+//! How a run of spans goes to the thread pool (see [`super`]): a parity's block pairs, or the
+//! planes' blocks. With at least [`PAIR_SPANS_FROM`] spans (or serially), two spans go to a
+//! task, and a sweep's two blocks scan their contacts side by side; their work-list walks
+//! (see `frontier.rs`) still run one after the other, so a sweep that only walks gains
+//! nothing.
 //!
-//! Why two: a block's sweep is a chain, each contact of a particle waiting on the velocity the
+//! Why two: a block's scan is a chain, each contact of a particle waiting on the velocity the
 //! contact before it wrote, and the core idles while it waits. Two blocks of one parity share
 //! no slot and no row, so any interleaving of their contacts gives the bits of running them
 //! one after the other, and two chains side by side keep the core busy. (`carom bench --case`,
-//! the dense 10^6 pile: 0.90x the step; see docs/benchmarks.md.)
+//! the dense 10^6 pile: 0.90x the step; four blocks to a task were slower than two; see
+//! docs/benchmarks.md.)
 
+use super::{pair_mut, Blocks, Change, PairRule, PlaneContact, PlaneRule, Split, Visit};
 use crate::broadphase::Pair;
 use crate::frontier::{Stamps, Walk};
-use crate::schedule::{pair_mut, Blocks, Change, PairRule, PlaneContact, PlaneRule, Split, Visit};
 use crate::solver::RowsMut;
 use crate::vector::Vector;
 use std::ops::Range;
@@ -18,10 +21,9 @@ use std::ops::Range;
 impl Blocks {
     /// Two blocks' pairs (see [`Blocks::run_parity`]), or one block's when `b` is `None`: each
     /// block's changed contacts through the frontier when there is one (see
-    /// [`crate::frontier`]), scanning otherwise or past where the frontier stops. Returns how
-    /// many applications changed something.
-    /// The two blocks' scans go contact by contact in turn (see the module notes).
-    #[allow(clippy::too_many_arguments)]
+    /// [`crate::frontier`]), scanning otherwise or past where the frontier stops; the two
+    /// scans go contact by contact in turn (see the module notes). Returns how many
+    /// applications changed something.
     fn run_blocks<V: Vector>(
         &self,
         mut a: Span<V>,
@@ -157,7 +159,7 @@ fn scan<V: Vector>(
     }
 }
 
-/// One span of a parity run as [`split_run`] hands it out: its number, its first slot, its
+/// One span of a run as [`split_run`] hands it out: its number, its first slot, its
 /// slots and their stamps, the index of its first row, and its rows.
 pub(crate) struct Part<'a, T, R> {
     span: usize,
@@ -168,7 +170,7 @@ pub(crate) struct Part<'a, T, R> {
     rows: R,
 }
 
-/// What a parity run does with its spans, two at a time (see [`split_run`]).
+/// What a run does with its spans, two at a time (see [`split_run`]).
 pub(crate) trait SpanWork<T, R>: Sync {
     /// Runs span `a` and, when there is one, span `b` (disjoint from `a`); returns how many
     /// applications changed something.
@@ -178,8 +180,8 @@ pub(crate) trait SpanWork<T, R>: Sync {
 /// The pair rule over the spans of one parity (see [`Blocks::run_parity`]).
 pub(crate) struct PairWork<'w, F> {
     pub blocks: &'w Blocks,
-    /// The block of span 0.
-    pub first_block: usize,
+    /// This run's parity: span `c` is the pair of blocks `parity + 2 c` and the next.
+    pub parity: usize,
     pub visit: Visit,
     pub pairs: &'w [Pair],
     pub reverse: bool,
@@ -189,7 +191,7 @@ pub(crate) struct PairWork<'w, F> {
 impl<F> PairWork<'_, F> {
     fn span<'p, V>(&self, part: Part<'p, V, RowsMut<'p, V>>) -> Span<'p, V> {
         Span {
-            block: self.first_block + 2 * part.span,
+            block: self.parity + 2 * part.span,
             slot_base: part.slot_base,
             slots: part.data,
             stamps: part.stamps,
@@ -248,11 +250,12 @@ impl<'w, V: Send, R: Send, F: PlaneRule<V, R>> SpanWork<V, &mut [R]> for PlaneWo
     }
 }
 
-/// Spans in a parallel run from which its tasks take two spans each (see [`Blocks::run_blocks`]).
+/// Spans in a parallel run from which its tasks take two spans each (see [`split_run`]).
 const PAIR_SPANS_FROM: usize = 8;
 
-/// Runs `work` on the spans `spans` of a parity run, two at a time (the last alone when their
-/// number is odd): span `c` holds the slots `slot(c)..slot(c + 1)` of `data` and the rows
+/// Runs `work` on the spans `spans` of a run (a parity's block pairs, or the planes' blocks),
+/// two at a time when there are at least [`PAIR_SPANS_FROM`] or it runs serially (the last
+/// alone when their number is odd), else one at a time: span `c` holds the slots `slot(c)..slot(c + 1)` of `data` and the rows
 /// `row(c)..row(c + 1)`, counted from `slot(spans.start)` and `row(spans.start)`. On the thread
 /// pool when `parallel`, by halves; serially otherwise. Returns the sum of what `work` returns.
 #[allow(clippy::too_many_arguments)]
@@ -286,32 +289,7 @@ fn split_run_in<T: Send, R: Split>(
     work: &impl SpanWork<T, R>,
 ) -> u64 {
     if !parallel || spans.len() <= 1 + paired as usize {
-        let mut total = 0;
-        let (mut data, mut stamps, mut rows) = (data, stamps, rows);
-        let mut take = |c: usize| {
-            let (s, r) = (slot(c), row(c));
-            let (len, count) = (slot(c + 1) - s, row(c + 1) - r);
-            let (here, rest) = std::mem::take(&mut data).split_at_mut(len);
-            let (here_stamps, rest_stamps) = std::mem::take(&mut stamps).split_at(len);
-            let (here_rows, rest_rows) = std::mem::take(&mut rows).split_at_mut(count);
-            (data, stamps, rows) = (rest, rest_stamps, rest_rows);
-            Part {
-                span: c,
-                slot_base: s,
-                data: here,
-                stamps: here_stamps,
-                row_base: r,
-                rows: here_rows,
-            }
-        };
-        let mut c = spans.start;
-        while c < spans.end {
-            let a = take(c);
-            let b = (c + 1 < spans.end).then(|| take(c + 1));
-            total += work.run(a, b);
-            c += 2;
-        }
-        return total;
+        return run_in_order(spans, slot, row, data, stamps, rows, work);
     }
     let (s0, r0) = (slot(spans.start), row(spans.start));
     // (an even number of spans on the left, so that the pairs are the same however the run
@@ -357,8 +335,44 @@ fn split_run_in<T: Send, R: Split>(
     a + b
 }
 
+/// [`split_run`]'s spans `spans` on this thread, in order, two to each call of `work`.
+fn run_in_order<T: Send, R: Split>(
+    spans: std::ops::Range<usize>,
+    slot: &(impl Fn(usize) -> usize + Sync),
+    row: &(impl Fn(usize) -> usize + Sync),
+    data: &mut [T],
+    stamps: Stamps,
+    rows: R,
+    work: &impl SpanWork<T, R>,
+) -> u64 {
+    let (mut data, mut stamps, mut rows) = (data, stamps, rows);
+    let mut take = |c: usize| {
+        let (s, r) = (slot(c), row(c));
+        let (len, count) = (slot(c + 1) - s, row(c + 1) - r);
+        let (here, rest) = std::mem::take(&mut data).split_at_mut(len);
+        let (here_stamps, rest_stamps) = std::mem::take(&mut stamps).split_at(len);
+        let (here_rows, rest_rows) = std::mem::take(&mut rows).split_at_mut(count);
+        (data, stamps, rows) = (rest, rest_stamps, rest_rows);
+        Part {
+            span: c,
+            slot_base: s,
+            data: here,
+            stamps: here_stamps,
+            row_base: r,
+            rows: here_rows,
+        }
+    };
+    let mut total = 0;
+    for c in spans.clone().step_by(2) {
+        let a = take(c);
+        let b = (c + 1 < spans.end).then(|| take(c + 1));
+        total += work.run(a, b);
+    }
+    total
+}
+
 /// One block's share of a parity run: its span of slots (the block and the next), their
-/// stamps, and the rows of the block's pairs.
+/// stamps, and the rows of the block's own pairs.
 struct Span<'a, V> {
     block: usize,
     /// The span's first slot.
@@ -486,7 +500,9 @@ mod tests {
             .num_threads(2)
             .build()
             .unwrap();
-        for (n, size) in [(4096, 64), (1000, 256), (300, 64)] {
+        // (4096 / 64: 32 spans a parity, paired; 1162 / 64: 10 and 9, the last block partial;
+        // the others too few to pair on the pool)
+        for (n, size) in [(4096, 64), (1162, 64), (1000, 256), (300, 64)] {
             let pairs = contacts(n, 3 * size / 2);
             for reverse in [false, true] {
                 let expected = by_the_notes(n, size, &pairs, reverse);
@@ -498,6 +514,91 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// A one-sided rule (`b` ahead of `a` along x by at least their difference in y, the slot
+    /// numbers), applied by moving both: order matters, and a second visit with unchanged
+    /// values changes nothing, as work lists need.
+    fn push(_: &mut Row<DVec2>, _: &mut RowRecord, a: &mut DVec2, b: &mut DVec2) -> Change {
+        let (gap, needed) = (b.x - a.x, b.y - a.y);
+        if gap >= needed - 1e-9 {
+            return Change::Nothing;
+        }
+        let d = (needed - gap) * 0.5;
+        a.x -= d;
+        b.x += d;
+        Change::Counted
+    }
+
+    /// Sweeps through the work lists (the frontier's walks, their scans past where a walk
+    /// stops, two blocks to a task) give the bits of full serial sweeps.
+    #[test]
+    fn paired_work_list_sweeps_match_full_serial_sweeps() {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        for (n, size) in [(4096, 64), (1162, 64)] {
+            let pairs = contacts(n, 3 * size / 2);
+            // (a squeezed stretch every 512 slots, whose pushes spread for many sweeps, in a
+            // loose row: some blocks walk a few contacts, others change too many to walk)
+            let mut x = 0.0;
+            let start: Vec<DVec2> = (0..n)
+                .map(|i| {
+                    x += if i % 512 < 24 { 0.8 } else { 1.3 } + ((i * 7919) % 1013) as f64 * 1e-5;
+                    DVec2::new(x, i as f64)
+                })
+                .collect();
+            let run = |work_list: bool| {
+                let mut blocks = Blocks::default();
+                blocks.plan(n, size, &pairs, &[], work_list, 0);
+                blocks.index_contacts(n, &pairs);
+                let mut data = start.clone();
+                let (mut row, mut record) = (
+                    vec![Row::default(); pairs.len()],
+                    vec![RowRecord::default(); pairs.len()],
+                );
+                let mut slot = vec![0; n];
+                let mut group = vec![Default::default(); n.div_ceil(crate::frontier::GROUP)];
+                let mut stamps = if work_list {
+                    Stamps::new(&mut slot, &mut group)
+                } else {
+                    Stamps::none()
+                };
+                let mut changed = Vec::new();
+                for sweep in 1..=8u32 {
+                    let visit = if work_list {
+                        Visit {
+                            since: sweep - 1,
+                            now: sweep,
+                        }
+                    } else {
+                        Visit::ALL
+                    };
+                    let rows = RowsMut {
+                        row: &mut row,
+                        record: &mut record,
+                    };
+                    let reverse = sweep % 2 == 0;
+                    let sweep = |stamps: &mut Stamps| {
+                        let pairs = &pairs;
+                        blocks.sweep_pairs(
+                            &mut Alone, &mut data, stamps, visit, pairs, rows, reverse, &push,
+                        )
+                    };
+                    changed.push(pool.install(|| sweep(&mut stamps)));
+                }
+                let bits = data.iter().map(|v| v.x.to_bits()).collect::<Vec<_>>();
+                (bits, changed)
+            };
+            let (expected, counts) = run(false);
+            // (few contacts change after the first sweep: the later sweeps walk)
+            assert!(
+                counts[1].0 > 0 && counts[1].0 * 20 < pairs.len() as u64,
+                "{counts:?}"
+            );
+            assert!(run(true) == (expected, counts), "n {n}, size {size}");
         }
     }
 }
