@@ -255,13 +255,14 @@ const PAIR_SPANS_FROM: usize = 8;
 
 /// Runs `work` on the spans `spans` of a run (a parity's block pairs, or the planes' blocks),
 /// two at a time when there are at least [`PAIR_SPANS_FROM`] or it runs serially (the last
-/// alone when their number is odd), else one at a time: span `c` holds the slots `slot(c)..slot(c + 1)` of `data` and the rows
-/// `row(c)..row(c + 1)`, counted from `slot(spans.start)` and `row(spans.start)`. On the thread
-/// pool when `parallel`, by halves; serially otherwise. Returns the sum of what `work` returns.
+/// alone when their number is odd), else one at a time: span `c` holds the slots
+/// `slot(c)..slot(c + 1)` of `data` and the rows `row(c)..row(c + 1)`, counted from
+/// `slot(spans.start)` and `row(spans.start)`. On the thread pool when `parallel`, by halves;
+/// serially otherwise. Returns the sum of what `work` returns.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn split_run<T: Send, R: Split>(
     parallel: bool,
-    spans: std::ops::Range<usize>,
+    spans: Range<usize>,
     slot: &(impl Fn(usize) -> usize + Sync),
     row: &(impl Fn(usize) -> usize + Sync),
     data: &mut [T],
@@ -269,106 +270,104 @@ pub(crate) fn split_run<T: Send, R: Split>(
     rows: R,
     work: &impl SpanWork<T, R>,
 ) -> u64 {
-    // (two spans to a task only when there are enough tasks to share out: 5000 discs have
-    // five blocks, and the lecture pile took 1.1x as long with its spans paired)
-    let paired = spans.len() >= PAIR_SPANS_FROM || !parallel;
-    split_run_in(parallel, paired, spans, slot, row, data, stamps, rows, work)
+    let run = Run {
+        slot,
+        row,
+        work,
+        parallel,
+        // (two spans to a task only when there are enough tasks to share out: 5000 discs
+        // have five blocks, and the lecture pile took 1.1x as long with its spans paired)
+        paired: spans.len() >= PAIR_SPANS_FROM || !parallel,
+    };
+    run.split(spans, data, stamps, rows)
 }
 
-/// [`split_run`], pairing spans or not as `paired` says.
-#[allow(clippy::too_many_arguments)]
-fn split_run_in<T: Send, R: Split>(
+/// What stays the same while [`split_run`] halves a run: where each span's slots and rows
+/// start, what to do with them, and whether spans go two to a task.
+struct Run<'r, S, W, K> {
+    slot: &'r S,
+    row: &'r W,
+    work: &'r K,
     parallel: bool,
     paired: bool,
-    spans: std::ops::Range<usize>,
-    slot: &(impl Fn(usize) -> usize + Sync),
-    row: &(impl Fn(usize) -> usize + Sync),
-    data: &mut [T],
-    stamps: Stamps,
-    rows: R,
-    work: &impl SpanWork<T, R>,
-) -> u64 {
-    if !parallel || spans.len() <= 1 + paired as usize {
-        return run_in_order(spans, slot, row, data, stamps, rows, work);
-    }
-    let (s0, r0) = (slot(spans.start), row(spans.start));
-    // (an even number of spans on the left, so that the pairs are the same however the run
-    // is split: the results are the same either way, the cost is not)
-    let half = spans.len() / 2;
-    let mid = spans.start
-        + if paired {
-            half.next_multiple_of(2)
-        } else {
-            half
-        };
-    let (left_data, right_data) = data.split_at_mut(slot(mid) - s0);
-    let (left_stamps, right_stamps) = stamps.split_at(slot(mid) - s0);
-    let (left_rows, right_rows) = rows.split_at_mut(row(mid) - r0);
-    let (a, b) = rayon::join(
-        || {
-            split_run_in(
-                true,
-                paired,
-                spans.start..mid,
-                slot,
-                row,
-                left_data,
-                left_stamps,
-                left_rows,
-                work,
-            )
-        },
-        || {
-            split_run_in(
-                true,
-                paired,
-                mid..spans.end,
-                slot,
-                row,
-                right_data,
-                right_stamps,
-                right_rows,
-                work,
-            )
-        },
-    );
-    a + b
 }
 
-/// [`split_run`]'s spans `spans` on this thread, in order, two to each call of `work`.
-fn run_in_order<T: Send, R: Split>(
-    spans: std::ops::Range<usize>,
-    slot: &(impl Fn(usize) -> usize + Sync),
-    row: &(impl Fn(usize) -> usize + Sync),
-    data: &mut [T],
-    stamps: Stamps,
-    rows: R,
-    work: &impl SpanWork<T, R>,
-) -> u64 {
-    let (mut data, mut stamps, mut rows) = (data, stamps, rows);
-    let mut take = |c: usize| {
-        let (s, r) = (slot(c), row(c));
-        let (len, count) = (slot(c + 1) - s, row(c + 1) - r);
-        let (here, rest) = std::mem::take(&mut data).split_at_mut(len);
-        let (here_stamps, rest_stamps) = std::mem::take(&mut stamps).split_at(len);
-        let (here_rows, rest_rows) = std::mem::take(&mut rows).split_at_mut(count);
-        (data, stamps, rows) = (rest, rest_stamps, rest_rows);
-        Part {
-            span: c,
-            slot_base: s,
-            data: here,
-            stamps: here_stamps,
-            row_base: r,
-            rows: here_rows,
+impl<S, W, K> Run<'_, S, W, K>
+where
+    S: Fn(usize) -> usize + Sync,
+    W: Fn(usize) -> usize + Sync,
+{
+    /// The spans `spans` (see [`split_run`]), by halves on the thread pool down to a task.
+    fn split<T: Send, R: Split>(
+        &self,
+        spans: Range<usize>,
+        data: &mut [T],
+        stamps: Stamps,
+        rows: R,
+    ) -> u64
+    where
+        K: SpanWork<T, R>,
+    {
+        if !self.parallel || spans.len() <= 1 + self.paired as usize {
+            return self.in_order(spans, data, stamps, rows);
         }
-    };
-    let mut total = 0;
-    for c in spans.clone().step_by(2) {
-        let a = take(c);
-        let b = (c + 1 < spans.end).then(|| take(c + 1));
-        total += work.run(a, b);
+        let (s0, r0) = ((self.slot)(spans.start), (self.row)(spans.start));
+        // (an even number of spans on the left, so that the pairs are the same however the
+        // run is split: the results are the same either way, the cost is not)
+        let half = spans.len() / 2;
+        let mid = spans.start
+            + if self.paired {
+                half.next_multiple_of(2)
+            } else {
+                half
+            };
+        let (left_data, right_data) = data.split_at_mut((self.slot)(mid) - s0);
+        let (left_stamps, right_stamps) = stamps.split_at((self.slot)(mid) - s0);
+        let (left_rows, right_rows) = rows.split_at_mut((self.row)(mid) - r0);
+        let (a, b) = rayon::join(
+            || self.split(spans.start..mid, left_data, left_stamps, left_rows),
+            || self.split(mid..spans.end, right_data, right_stamps, right_rows),
+        );
+        a + b
     }
-    total
+
+    /// The spans `spans` on this thread, in order, two to each call of `work` (one when not
+    /// paired: a task's run is then a single span).
+    fn in_order<T: Send, R: Split>(
+        &self,
+        spans: Range<usize>,
+        data: &mut [T],
+        stamps: Stamps,
+        rows: R,
+    ) -> u64
+    where
+        K: SpanWork<T, R>,
+    {
+        let (mut data, mut stamps, mut rows) = (data, stamps, rows);
+        let mut take = |c: usize| {
+            let (s, r) = ((self.slot)(c), (self.row)(c));
+            let (len, count) = ((self.slot)(c + 1) - s, (self.row)(c + 1) - r);
+            let (here, rest) = std::mem::take(&mut data).split_at_mut(len);
+            let (here_stamps, rest_stamps) = std::mem::take(&mut stamps).split_at(len);
+            let (here_rows, rest_rows) = std::mem::take(&mut rows).split_at_mut(count);
+            (data, stamps, rows) = (rest, rest_stamps, rest_rows);
+            Part {
+                span: c,
+                slot_base: s,
+                data: here,
+                stamps: here_stamps,
+                row_base: r,
+                rows: here_rows,
+            }
+        };
+        let mut total = 0;
+        for c in spans.clone().step_by(2) {
+            let a = take(c);
+            let b = (c + 1 < spans.end).then(|| take(c + 1));
+            total += self.work.run(a, b);
+        }
+        total
+    }
 }
 
 /// One block's share of a parity run: its span of slots (the block and the next), their
