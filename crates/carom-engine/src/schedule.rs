@@ -276,6 +276,35 @@ impl Blocks {
         )
     }
 
+    /// One sweep over every pair in slot order, serially: block after block (each with its
+    /// contacts into the next block), then the leftovers. A change so travels from the first
+    /// slot to the last within the sweep, which the even/odd order of [`Blocks::sweep_pairs`]
+    /// carries about two blocks (what shock propagation needs: support climbing a pile whose
+    /// blocks are its layers). Across processes, each runs its blocks after the one before it
+    /// (see [`Exchange::in_order`]). Returns the same counts as [`Blocks::every_pair`].
+    pub fn every_pair_in_order<V: Vector, E: Exchange<V>>(
+        &self,
+        exchange: &mut E,
+        data: &mut [V],
+        pairs: &[Pair],
+        mut rows: RowsMut<V>,
+        rule: &impl PairRule<V>,
+    ) -> (u64, u64) {
+        let changed = exchange.in_order(data, &mut |data: &mut [V]| {
+            self.run_in_order(data, pairs, rows.reborrow(), rule)
+        });
+        let leftovers = exchange.leftovers(
+            self,
+            data,
+            &mut Stamps::none(),
+            Visit::ALL,
+            pairs,
+            rows,
+            rule,
+        );
+        (changed, leftovers)
+    }
+
     /// The blocks of one global parity, each with the slots of itself and the next block.
     #[allow(clippy::too_many_arguments)]
     fn run_parity<V: Vector>(
@@ -409,6 +438,10 @@ pub(crate) trait Exchange<V: Vector> {
     /// Marks the impulses now accumulated as the ones the relax pass kept (`Row::kept`) on the
     /// rows this exchange runs for every process (the own rows are marked by the caller).
     fn keep_impulses(&mut self);
+    /// Runs `own` (this process's blocks, in order, on `data`) after every process before it
+    /// ran its own, with the particles of the next process's first block lent for it: a sweep
+    /// in global slot order. Returns what `own` returns.
+    fn in_order(&mut self, data: &mut [V], own: &mut dyn FnMut(&mut [V]) -> u64) -> u64;
     /// `local` added up over every process.
     fn total(&mut self, local: u64) -> u64;
     /// The largest of `local` over every process.
@@ -453,6 +486,10 @@ impl<V: Vector> Exchange<V> for Alone {
             }
         }
         changed
+    }
+    #[inline]
+    fn in_order(&mut self, data: &mut [V], own: &mut dyn FnMut(&mut [V]) -> u64) -> u64 {
+        own(data)
     }
     #[inline]
     fn settle_rows(&mut self, _blocks: &Blocks, _rows: RowsMut<V>) {}

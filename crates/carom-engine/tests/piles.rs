@@ -345,6 +345,20 @@ fn a_hexagonal_pyramid_holds_for_a_minute() {
     assert!(v_rms(&w) < 0.01 * G.sqrt(), "v_rms {}", v_rms(&w));
 }
 
+/// The settled phase of a tall pile: 600 hexagonal rows (5700 discs, six solver blocks) stand
+/// at rest from the first steps, their contacts overlapping no deeper than the slop. The shock
+/// sweep carries the support from the floor to the top in one sweep, block after block; when
+/// it ran the even blocks and then the odd ones, the top sank 2.5 r in 120 steps (on a pile
+/// 100 discs wide), and when it pushed along each contact's normal it flew apart in one step.
+#[test]
+fn six_hundred_hexagonal_rows_stand_still() {
+    let (sunk, w) = top_sinks(hex_stack(10, 600, false), 120);
+    assert!(sunk.abs() < 0.03, "the top row sank {sunk} r");
+    assert_eq!(w.asleep(), w.len());
+    let (max, _) = overlaps(&w);
+    assert!(max < 0.0011, "overlap {max} r");
+}
+
 /// The shock sweep on its own: with one velocity sweep a step and no substeps (every step
 /// capped), a column of 20 discs does not sink at all and falls asleep. (Without the shock
 /// sweep it sank up to 0.66 r, then rose 0.33 r above its start, and never came to rest.)

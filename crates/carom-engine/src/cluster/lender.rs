@@ -170,13 +170,26 @@ pub(super) struct Lender<'a, 'l, T: ?Sized, V> {
 
 impl<T: Transport + ?Sized, V: Vector> Lender<'_, '_, T, V> {
     /// Lends (`back == false`) or returns (`back == true`) the borrowed particles the block
-    /// pairs of `parity` touch.
-    fn swap_halo(&mut self, parity: usize, data: &mut [V], back: bool) {
-        if !self.lending[parity] {
+    /// pairs of `parity` touch (of either parity when `None`); when `turn` is given, only
+    /// rank `turn` returns what it borrowed.
+    fn swap_halo(
+        &mut self,
+        parity: Option<usize>,
+        data: &mut [V],
+        back: bool,
+        turn: Option<usize>,
+    ) {
+        let lending = match parity {
+            Some(p) => self.lending[p],
+            None => self.lending[0] || self.lending[1],
+        };
+        if !lending {
             return;
         }
-        let borrower = borrower(self.partition, self.rank, Some(parity));
-        let lender = lender(self.partition, self.rank, Some(parity));
+        let borrower = borrower(self.partition, self.rank, parity)
+            .filter(|&b| !back || turn.is_none_or(|t| t == b));
+        let lender = lender(self.partition, self.rank, parity)
+            .filter(|_| turn.is_none_or(|t| t == self.rank));
         let own = self.own;
         let mut outgoing: Vec<Writer> = (0..self.link.ranks()).map(|_| Writer::default()).collect();
         match (back, borrower, lender) {
@@ -213,11 +226,25 @@ impl<T: Transport + ?Sized, V: Vector> Lender<'_, '_, T, V> {
 
 impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
     fn before_blocks(&mut self, parity: usize, data: &mut [V]) {
-        self.swap_halo(parity, data, false);
+        self.swap_halo(Some(parity), data, false, None);
     }
 
     fn after_blocks(&mut self, parity: usize, data: &mut [V]) {
-        self.swap_halo(parity, data, true);
+        self.swap_halo(Some(parity), data, true, None);
+    }
+
+    fn in_order(&mut self, data: &mut [V], own: &mut dyn FnMut(&mut [V]) -> u64) -> u64 {
+        // (every rank's border particles go out at once; then rank after rank runs its blocks
+        // and hands back what it borrowed, before the next one runs)
+        self.swap_halo(None, data, false, None);
+        let mut changed = 0;
+        for turn in 0..self.link.ranks() {
+            if turn == self.rank {
+                changed = own(data);
+            }
+            self.swap_halo(None, data, true, Some(turn));
+        }
+        changed
     }
 
     fn leftovers(

@@ -59,6 +59,33 @@ impl Blocks {
         }
     }
 
+    /// Every block's pairs on this thread, block after block in slot order, each block with
+    /// the slots of itself and the next (see [`Blocks::every_pair_in_order`]); no work list.
+    pub(super) fn run_in_order<V: Vector>(
+        &self,
+        data: &mut [V],
+        pairs: &[Pair],
+        mut rows: RowsMut<V>,
+        rule: &impl PairRule<V>,
+    ) -> u64 {
+        let (n, size) = (data.len(), self.size);
+        let mut changed = 0;
+        for block in 0..self.count() {
+            let slots = (block * size).min(n)..((block + 2) * size).min(n);
+            let (first, last) = (self.pair_start[block], self.pair_start[block + 1]);
+            let span = Span {
+                block,
+                slot_base: slots.start,
+                slots: &mut data[slots],
+                stamps: Stamps::none(),
+                row_base: first,
+                rows: rows.reborrow().split_at_mut(last).0.split_at_mut(first).1,
+            };
+            changed += self.run_blocks(span, None, Visit::ALL, pairs, false, rule);
+        }
+        changed
+    }
+
     /// The frontier's part of one block's sweep (see [`Blocks::run_blocks`]): how many of its
     /// applications changed something, and the block's contacts left to scan.
     fn walk_block<V: Vector>(

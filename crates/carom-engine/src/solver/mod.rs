@@ -24,12 +24,13 @@
 //! carry a pile's weight up a chain of `n` contacts in about `n^2` sweeps, so a stack a hundred
 //! discs tall would sink for hundreds of steps before its impulses, remembered from step to
 //! step, caught up. When the relax sweeps of a step under gravity hit their cap, one more
-//! sweep follows in which a resting contact holds its lower particle fixed and stops the upper
-//! one approaching it; the sweep order, sorted along space, runs up a 2D stack from its floor
-//! (a 3D one slab of cells at a time; and block by block, see [`crate::schedule`]), so support
-//! reaches the top in that one sweep. The lower particle does not feel the push: the
-//! reaction is what it would have passed on down to the floor (or, in a capped mid-air
-//! cluster, is lost, so momentum is exact there only while the sweeps converge). Impacts never
+//! sweep follows in which a resting contact holds its lower particle fixed and lifts the upper
+//! one, along gravity, until it stops approaching; the sweep runs in slot order, sorted along
+//! space, block after block (see [`crate::schedule`]), so up a 2D pile from its floor (a 3D one
+//! slab of cells at a time), and support reaches the top in that one sweep. The lower
+//! particle does not feel the push: the reaction is what it would have passed on down to the
+//! floor (or, in a capped mid-air cluster, is lost, so momentum is exact there only while the
+//! sweeps converge; sideways momentum is never touched). Impacts never
 //! take part: they keep the lecture's response.
 //!
 //! **Position phase** (the lecture's "solution 1", which it calls hard with many contacts):

@@ -21,9 +21,9 @@ use std::time::Instant;
 /// 2. `substeps` times, with `h = dt / substeps`: `v += g h`; the accumulated impulses are
 ///    applied (from the last step at first: warm starting); *relax* sweeps of accumulated
 ///    impulses until no contact approaches (a gap may close, no more); `x += v h`; the
-///    contacts' geometry is brought up to date. When the last substep's relax hits its cap,
-///    a shock sweep follows (see [`shock`]). What the last relax leaves is remembered for the
-///    next step;
+///    contacts' geometry is brought up to date. When the last substep's relax hits its cap
+///    (any substep's, in a step without impacts), a shock sweep follows (see [`shock`]). What
+///    the last relax leaves is remembered for the next step;
 /// 3. *restitution* (when there were impacts): sweeps until every impact separates at its
 ///    `k s` and no other contact misses its goal by more than the resting speed (what the
 ///    impacts push into; smaller misses are the relax's, left to the next step). An isolated
@@ -64,6 +64,8 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         gravity,
         dt,
     );
+    // (every process's count: each decides the same thing from it)
+    let impacts = exchange.total(impacts);
     let parallel = c.blocks.parallel();
     let mut solve = VelocitySolve::default();
     // (with substeps, the last substep's re-placing marks the impulses kept: see `place`)
@@ -82,7 +84,7 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
                 }
                 exchange.keep_impulses();
             }
-            if exchange.total(impacts) == 0 {
+            if impacts == 0 {
                 break;
             }
         } else {
@@ -112,10 +114,13 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
             !planes_in_move,
             &mut solve,
         );
-        // (once a step, after the last substep's relax: a shock sweep in every substep stirs a
-        // pile, which then takes longer to come to rest)
+        // (after the last substep's relax, and after every substep's when nothing struck this
+        // step: a shock sweep in every substep while impacts rain on a pile stirs it, and the
+        // lecture pile came to rest at step 1043 instead of 752; but a pile at rest sinks in
+        // the substeps that have none, a column of 100 discs 2.8 % of r)
         let last_relax = index as u32 + 1 == substeps;
-        if capped && last_relax && !settings.lecture_pairs() && gravity != V::ZERO {
+        let shock_now = last_relax || (pass == Pass::Relax && impacts == 0);
+        if capped && shock_now && !settings.lecture_pairs() && gravity != V::ZERO {
             let up = gravity * (-1.0 / gravity.length_squared().sqrt());
             shock(exchange, velocity, c, up, !planes_in_move);
         }
