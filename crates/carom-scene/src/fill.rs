@@ -286,7 +286,8 @@ fn fill_one<V: Vector>(
     let mut rng = Pcg64::seed_from_u64(seed);
     match f.arrangement {
         RawArrangement::Random => place_random(ctx, i, &fill, &mut rng, placer, out, batch_size),
-        RawArrangement::Lattice => place_lattice(ctx, i, &fill, &mut rng, placer, out),
+        RawArrangement::Lattice => place_lattice(ctx, i, &fill, &mut rng, placer, out, false),
+        RawArrangement::Hex => place_lattice(ctx, i, &fill, &mut rng, placer, out, true),
     }
 }
 
@@ -439,7 +440,9 @@ fn place_in_batches<V: Vector>(
 }
 
 /// Lattice sites from the region's min corner (less a radius), x fastest, each kept if it
-/// overlaps nothing.
+/// overlaps nothing and lies in the region: a square (cubic) lattice, or with `hex` a close
+/// packing, rows of a triangular lattice (in 3D, its layers stacked ABAB: hexagonal close
+/// packing), every neighbour a hair more than a diameter away.
 fn place_lattice<V: Vector>(
     ctx: &Ctx,
     i: usize,
@@ -447,6 +450,7 @@ fn place_lattice<V: Vector>(
     rng: &mut Pcg64,
     placer: &mut Placer<V>,
     out: &mut Particles<V>,
+    hex: bool,
 ) -> Result<(), SceneError> {
     let (count, radius) = (fill.count, fill.radius);
     let lo = fill.region.min + V::from_slice(&[radius; 3]);
@@ -454,9 +458,20 @@ fn place_lattice<V: Vector>(
     let start = out.len();
     // A hair more than a diameter apart, so neighbours do not count as touching.
     let spacing = 2.0 * radius * (1.0 + 1e-9);
+    // (site steps along each axis: a close packing's rows are sqrt(3)/2 apart, its layers
+    // sqrt(2/3))
+    let step = if hex {
+        [
+            spacing,
+            spacing * 0.75f64.sqrt(),
+            spacing * (2.0f64 / 3.0).sqrt(),
+        ]
+    } else {
+        [spacing; 3]
+    };
     let mut per_axis = [1usize; 3];
     for (a, n) in per_axis.iter_mut().enumerate().take(V::DIM) {
-        *n = (span.get(a) / spacing).floor() as usize + 1;
+        *n = (span.get(a) / step[a]).floor() as usize + 1;
     }
     let seams = placer.seams;
     let mut site = [0usize; 3];
@@ -464,10 +479,7 @@ fn place_lattice<V: Vector>(
         let left = count - (placed - start) as u64;
         let size = LATTICE_SITES_PER_BATCH.min(left.max(MIN_TRIES_PER_BATCH as u64) as usize);
         while tries.len() < size && site[V::DIM - 1] < per_axis[V::DIM - 1] {
-            let mut c = [0.0; 3];
-            for a in 0..V::DIM {
-                c[a] = lo.get(a) + spacing * site[a] as f64;
-            }
+            let c = lattice_site(site, step, hex);
             // next site, x fastest
             for a in 0..V::DIM {
                 site[a] += 1;
@@ -476,7 +488,11 @@ fn place_lattice<V: Vector>(
                 }
                 site[a] = 0;
             }
-            let x = V::from_slice(&c);
+            // (a close packing's shifted rows may reach past the region by half a site)
+            if (0..V::DIM).any(|a| c[a] > span.get(a) * (1.0 + 1e-12)) {
+                continue;
+            }
+            let x = lo + V::from_slice(&c);
             tries.push(seams.map_or(x, |(p, _)| p.wrap(x)));
         }
     };
@@ -490,6 +506,23 @@ fn place_lattice<V: Vector>(
             out.len() - start
         ),
     ))
+}
+
+/// Where lattice site `site` (counted per axis) lies from the first one, sites `step` apart
+/// per axis: on a square (cubic) lattice; or, with `hex`, odd rows shifted by half a site
+/// along x, and odd layers by half a site along x and a third of a row along y (the hollows of
+/// the layer below).
+fn lattice_site(site: [usize; 3], step: [f64; 3], hex: bool) -> [f64; 3] {
+    let [i, j, k] = site.map(|n| n as f64);
+    if !hex {
+        return [i * step[0], j * step[1], k * step[2]];
+    }
+    let (odd_row, odd_layer) = ((site[1] % 2) as f64, (site[2] % 2) as f64);
+    [
+        (i + 0.5 * odd_row + 0.5 * odd_layer) * step[0],
+        (j + odd_layer / 3.0) * step[1],
+        k * step[2],
+    ]
 }
 
 /// Lattice sites decided together (see [`place_in_batches`]), or as many as particles are
@@ -566,6 +599,61 @@ mod tests {
         assert_eq!(
             batch_size(so_far(1 << 22, 9, Some((9, 0)))),
             MAX_TRIES_PER_BATCH
+        );
+    }
+
+    /// The smallest and the largest distance from a particle to its nearest neighbour, by
+    /// brute force.
+    fn nearest_range<V: Vector>(p: &Particles<V>) -> (f64, f64) {
+        let x = p.positions();
+        let nearest = |i: usize| {
+            (0..x.len())
+                .filter(|&j| j != i)
+                .map(|j| (x[i] - x[j]).length_squared().sqrt())
+                .fold(f64::INFINITY, f64::min)
+        };
+        (0..x.len())
+            .map(nearest)
+            .fold((f64::INFINITY, 0.0), |(lo, hi), d| (lo.min(d), hi.max(d)))
+    }
+
+    /// `arrangement = "hex"`: a close packing, every particle's nearest neighbour a hair more
+    /// than a diameter away, as many as fit (2D: 11 rows of 10 and 9 discs in a box a hair over
+    /// 10 diameters square; 3D: hexagonal close packing, 74 % of space less the edges).
+    #[test]
+    fn hex_fills_a_close_packing() {
+        let scene = |dim: u32, count: u64, max: f64| {
+            let corner = |v: f64| vec![v; dim as usize];
+            let text = format!(
+                "dimensions = {dim}\ndt = 0.01\n[domain]\nmin = {:?}\nmax = {:?}\n\
+                 [[fill]]\ncount = {count}\nradius = 0.5\narrangement = \"hex\"\n",
+                corner(0.0),
+                corner(max)
+            );
+            crate::parse(&text, "test")
+        };
+        // 2D: 11 rows sqrt(3)/2 apart fit in 10, 6 of 10 discs and 5 of 9
+        let two = match scene(2, 105, 10.00001).unwrap() {
+            crate::AnyScene::Two(s) => s.particles,
+            _ => unreachable!(),
+        };
+        let (lo, hi) = nearest_range(&two);
+        assert!(
+            (1.0..1.0 + 1e-6).contains(&lo) && hi < 1.0 + 1e-6,
+            "{lo} {hi}"
+        );
+        let top = two.positions().iter().map(|x| x.y).fold(0.0, f64::max);
+        assert!((top - (0.5 + 10.0 * 0.75f64.sqrt())).abs() < 1e-6, "{top}");
+        assert!(scene(2, 106, 10.00001).is_err());
+        // 3D: layers sqrt(2/3) apart, the odd ones over the hollows of the even ones
+        let three = match scene(3, 1500, 12.0).unwrap() {
+            crate::AnyScene::Three(s) => s.particles,
+            _ => unreachable!(),
+        };
+        let (lo, hi) = nearest_range(&three);
+        assert!(
+            (1.0..1.0 + 1e-6).contains(&lo) && hi < 1.0 + 1e-6,
+            "{lo} {hi}"
         );
     }
 

@@ -86,6 +86,7 @@ pub(crate) enum RawArrangement {
     #[default]
     Random,
     Lattice,
+    Hex,
 }
 
 #[derive(Debug, Deserialize)]
