@@ -54,7 +54,7 @@ pub enum Part {
     /// The scale sweep only.
     Sweep,
     /// Piles at dt = 1/60 (k = 0.5): the lecture pile falling and settled, a 3D pour, 10^6
-    /// discs falling.
+    /// discs falling, and 10^6 discs in a pile at rest.
     Piles,
 }
 
@@ -219,6 +219,13 @@ fn pile_cases(args: &BenchArgs) -> Vec<Case> {
     );
     // 10^6 discs r = 0.5 at area fraction 0.3 (they need ~1100 steps to reach the floor)
     let million = pile_toml(2, 1_000_000, 0.5, &[-809.0; 2], &[809.0; 2]);
+    // the pile those discs would end as, at rest from the start: 619 hexagonal rows from wall
+    // to wall (the box a hair wider, for the fill's spacing), asleep whole from step 32
+    let settled = "dimensions = 2\ndt = 0.016666666666666666\ngravity = [0.0, -9.81]\n\
+         restitution = 0.5\n[domain]\nmin = [-809.001, -809.001]\nmax = [809.001, 809.001]\n\
+         walls = true\n[[fill]]\ncount = 1000000\nradius = 0.5\nspeed = 0.0\n\
+         arrangement = \"hex\"\nmin = [-809.001, -809.001]\nmax = [809.001, -200.0]\n"
+        .to_string();
     vec![
         case(
             "2D lecture pile, falling (steps 10-300)",
@@ -247,6 +254,18 @@ fn pile_cases(args: &BenchArgs) -> Vec<Case> {
         ),
         case("3D pour 10^5, asleep (steps 1100-1200)", pour, 1100, 100),
         case("2D 10^6 discs, falling (steps 10-40)", million, 10, 30),
+        case(
+            "2D 10^6 discs, a pile at rest, awake (steps 5-15)",
+            settled.clone(),
+            5,
+            10,
+        ),
+        case(
+            "2D 10^6 discs, a pile at rest, asleep (steps 35-45)",
+            settled,
+            35,
+            10,
+        ),
     ]
 }
 
