@@ -11,7 +11,9 @@
 //! 2. the odd blocks, the same way;
 //! 3. the leftover contacts (those whose `j` lies further away), one after another;
 //!
-//! and plane contacts run block by block (one particle is never in two blocks). Inside a block,
+//! and plane contacts run block by block (one particle is never in two blocks). One sweep runs
+//! otherwise: shock propagation's, block after block in slot order, serially
+//! (`Blocks::every_pair_in_order`), then the leftovers. Inside a block,
 //! contacts go in sorted order. So the order of every response is fixed by the contact set and
 //! the slots alone: the same for any thread count, and the same whichever broad phase found the
 //! contacts. Running the blocks serially gives the very same bits. (How one parity's blocks are

@@ -388,7 +388,7 @@ fn place_random<V: Vector>(
         format!("fill[{i}].count"),
         format!(
             "placed only {} of {count} particles without overlap after {budget} random tries; \
-             enlarge the region, lower count or radius, or use arrangement = \"lattice\"",
+             enlarge the region, lower count or radius, or use arrangement = \"lattice\" or \"hex\"",
             out.len() - start
         ),
     ))

@@ -14,7 +14,8 @@
 //! 4. runs the solver's sweeps in the very order one process would (see [`crate::solver`]):
 //!    the halo goes back and forth around the block pairs that touch it, the few *leftover*
 //!    contacts (reaching past the next block) run on every rank in their global order, and
-//!    the counts that stop each phase are added up over all ranks.
+//!    the counts that stop each phase are added up over all ranks. (The shock sweep, which
+//!    runs the blocks one after another, runs rank after rank: see `Exchange::in_order`.)
 //!
 //! So the result is bit-identical to [`crate::World`] for any number of ranks (and threads).
 //! The message passing is behind [`Transport`]: [`ThreadTransport`] runs ranks as threads of

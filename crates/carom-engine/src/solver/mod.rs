@@ -23,8 +23,8 @@
 //! **Shock propagation** (Guendelman, Bridson and Fedkiw 2003). Equal and opposite impulses
 //! carry a pile's weight up a chain of `n` contacts in about `n^2` sweeps, so a stack a hundred
 //! discs tall would sink for hundreds of steps before its impulses, remembered from step to
-//! step, caught up. When the relax sweeps of a step under gravity hit their cap, one more
-//! sweep follows in which a resting contact holds its lower particle fixed and lifts the upper
+//! step, caught up. When the relax sweeps of a step under gravity hit their cap (the last
+//! substep's; in a step without impacts, any substep's), one more sweep follows in which a resting contact holds its lower particle fixed and lifts the upper
 //! one, along gravity, until it stops approaching; the sweep runs in slot order, sorted along
 //! space, block after block (see [`crate::schedule`]), so up a 2D pile from its floor (a 3D one
 //! slab of cells at a time), and support reaches the top in that one sweep. The lower

@@ -20,7 +20,8 @@ use crate::vector::Vector;
 /// never faster, and no sideways motion is made.
 ///
 /// The lift is a correction, not a force the contacts remember: it is not added to the
-/// contact's accumulated impulse (warm starting it into the next step pushed the lower
+/// contact's accumulated impulse (the contacts the sweep leaves to equal and opposite impulses
+/// accumulate theirs as usual) (warm starting it into the next step pushed the lower
 /// particle down by what the sweep never took from it, and the 600 rows did not come to rest).
 pub(super) fn shock<V: Vector, E: Exchange<V>>(
     exchange: &mut E,
@@ -69,9 +70,9 @@ pub(super) fn shock<V: Vector, E: Exchange<V>>(
         .every_pair_in_order(exchange, velocity, c.pairs, c.rows.reborrow(), &pairs);
 }
 
-/// A contact whose normal is within this cosine of horizontal (60 degrees from `up`) has no
+/// A contact whose normal's `|n . up|` is below this (more than 60 degrees from `up`) has no
 /// lower particle in a shock sweep: it takes equal and opposite impulses as usual. (Lifting
-/// along `up` closes a shortfall `s` with a lift of `s / cos`, at most `2 s` here; a hexagonal
-/// pile's contacts are at 30 degrees from `up`. 0.3 and 0.7 both let the lecture pile come to rest
-/// later than 0.5 did.)
+/// along `up` closes a shortfall `s` with a lift of `s / |n . up|`, at most `2 s` here; a
+/// hexagonal pile's contacts are 30 degrees from `up`. 0.3 and 0.7 both let the lecture pile
+/// come to rest later than 0.5 did.)
 const SHOCK_MIN_HEIGHT: f64 = 0.5;
