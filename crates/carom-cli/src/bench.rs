@@ -169,9 +169,17 @@ fn sweep_toml(dim: usize, n: u64) -> String {
 /// A pile scene at dt = 1/60, k = 0.5, g = 9.81 (the issue's targets): `count` particles of
 /// `radius` poured into a walled box from `min` to `max`, filled at random over the box.
 fn pile_toml(dim: usize, count: u64, radius: f64, min: &[f64], max: &[f64]) -> String {
+    format!(
+        "{}[[fill]]\ncount = {count}\nradius = {radius}\nspeed = 7.0\nseed = {count}\n",
+        walled_box_toml(dim, min, max)
+    )
+}
+
+/// The part of [`pile_toml`] before its fill: settings and the walled box.
+fn walled_box_toml(dim: usize, min: &[f64], max: &[f64]) -> String {
     let list = |v: &[f64]| {
         v.iter()
-            .map(|x| format!("{x:.1}"))
+            .map(|x| format!("{x:?}"))
             .collect::<Vec<_>>()
             .join(", ")
     };
@@ -182,8 +190,7 @@ fn pile_toml(dim: usize, count: u64, radius: f64, min: &[f64], max: &[f64]) -> S
     };
     format!(
         "dimensions = {dim}\ndt = 0.016666666666666666\ngravity = {g}\nrestitution = 0.5\n\
-         [domain]\nmin = [{}]\nmax = [{}]\nwalls = true\n\
-         [[fill]]\ncount = {count}\nradius = {radius}\nspeed = 7.0\nseed = {count}\n",
+         [domain]\nmin = [{}]\nmax = [{}]\nwalls = true\n",
         list(min),
         list(max)
     )
@@ -221,11 +228,11 @@ fn pile_cases(args: &BenchArgs) -> Vec<Case> {
     let million = pile_toml(2, 1_000_000, 0.5, &[-809.0; 2], &[809.0; 2]);
     // the pile those discs would end as, at rest from the start: 619 hexagonal rows from wall
     // to wall (the box a hair wider, for the fill's spacing), asleep whole from step 32
-    let settled = "dimensions = 2\ndt = 0.016666666666666666\ngravity = [0.0, -9.81]\n\
-         restitution = 0.5\n[domain]\nmin = [-809.001, -809.001]\nmax = [809.001, 809.001]\n\
-         walls = true\n[[fill]]\ncount = 1000000\nradius = 0.5\nspeed = 0.0\n\
-         arrangement = \"hex\"\nmin = [-809.001, -809.001]\nmax = [809.001, -200.0]\n"
-        .to_string();
+    let settled = format!(
+        "{}[[fill]]\ncount = 1000000\nradius = 0.5\nspeed = 0.0\narrangement = \"hex\"\n\
+         min = [-809.001, -809.001]\nmax = [809.001, -200.0]\n",
+        walled_box_toml(2, &[-809.001; 2], &[809.001; 2])
+    );
     vec![
         case(
             "2D lecture pile, falling (steps 10-300)",
