@@ -216,7 +216,7 @@ fn pile_cases(args: &BenchArgs) -> Vec<Case> {
         return vec![case("2D lecture pile, falling", lecture, 10, 20)];
     }
     // 100,000 spheres poured into an 80 x 240 x 80 box: landing by step 400, settling in the
-    // pile after, asleep whole from step 1017 (see docs/benchmarks.md)
+    // pile after, asleep whole from step 1167 (see docs/benchmarks.md)
     let pour = pile_toml(
         3,
         100_000,
@@ -259,7 +259,7 @@ fn pile_cases(args: &BenchArgs) -> Vec<Case> {
             600,
             100,
         ),
-        case("3D pour 10^5, asleep (steps 1100-1200)", pour, 1100, 100),
+        case("3D pour 10^5, asleep (steps 1200-1300)", pour, 1200, 100),
         case("2D 10^6 discs, falling (steps 10-40)", million, 10, 30),
         case(
             "2D 10^6 discs, a pile at rest, awake (steps 5-15)",
