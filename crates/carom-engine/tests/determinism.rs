@@ -300,8 +300,9 @@ fn golden_hash_2d() {
     // (changed with the shock sweep: this run hits the relax cap under gravity; and when the
     // restitution pass stopped chasing resting contacts' misses under the resting speed; and
     // when the shock sweep began to run block after block and to lift along gravity; and when
-    // the restitution pass left met impacts' changes within the residual tolerance undone)
-    const GOLDEN: u64 = 0xdffd_da04_b666_1acf;
+    // the restitution pass left met impacts' changes within the residual tolerance undone; and
+    // when planes took every particle within a radius beyond its reach as a candidate)
+    const GOLDEN: u64 = 0xcb7d_b4bc_79d9_648d;
     let mut w = golden_scene::<DVec2>();
     for _ in 0..200 {
         w.step();
@@ -314,8 +315,9 @@ fn golden_hash_2d() {
 fn golden_hash_3d() {
     // (changed when the restitution pass stopped chasing resting contacts' misses under the
     // resting speed, and when it left met impacts' changes within the residual tolerance
-    // undone)
-    const GOLDEN: u64 = 0x9115_788d_b732_baf9;
+    // undone, and when planes took every particle within a radius beyond its reach as a
+    // candidate)
+    const GOLDEN: u64 = 0x4786_cb8f_6a5d_f157;
     let mut w = golden_scene::<DVec3>();
     for _ in 0..200 {
         w.step();

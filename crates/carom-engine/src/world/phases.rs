@@ -256,9 +256,8 @@ impl<V: Vector> World<V> {
         }
         let (position, reach, planes) = (&self.store.position, &self.reach, &self.planes);
         let radius = &self.store.radius;
-        let in_move = (self.config.solver_settings()).planes_in_move(planes, self.config.gravity);
         let sleepers = &self.sleepers;
-        let plane_reach = |i: usize| solver::plane_reach(reach[i], radius[i], in_move);
+        let plane_reach = |i: usize| solver::plane_reach(reach[i], radius[i]);
         let work = |(c, out): (usize, &mut Vec<PlaneContact>)| {
             out.clear();
             let chunk = c * INTEGRATE_CHUNK..((c + 1) * INTEGRATE_CHUNK).min(n);

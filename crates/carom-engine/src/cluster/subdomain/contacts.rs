@@ -142,14 +142,12 @@ impl<V: Vector> Subdomain<V> {
             .extend(self.candidates.iter().map(|c| search.id[c.1 .1 as usize]));
         self.mark_sleepers(link);
         self.plane_contacts.clear();
-        let in_move =
-            (self.config.solver_settings()).planes_in_move(&self.planes, self.config.gravity);
         let (window, reach, sleepers) = (&self.window, &self.reach, &self.sleepers);
         plane_candidates(
             &self.planes,
             &window.position[..own],
             0,
-            |s| solver::plane_reach(reach[s], window.radius[s], in_move),
+            |s| solver::plane_reach(reach[s], window.radius[s]),
             |s| sleepers.sleeps(s),
             &mut self.plane_contacts,
         );
