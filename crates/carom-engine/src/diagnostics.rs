@@ -63,6 +63,12 @@ pub struct StepStats {
     /// smaller radius, `(r_i + r_j - |x_i - x_j|) / min(r_i, r_j)`, over this step's contact
     /// candidates (every pair within reach of each other this step); 0 when nothing overlaps.
     pub max_overlap: f64,
+    /// The deepest particle-particle overlap among the pairs this step found, measured as
+    /// [`StepStats::max_overlap`] is but before anything moved: the state the step started
+    /// from (the last step's result), over every pair within reach. `max_overlap` covers only
+    /// the step's own contact candidates, and a pair that a push drove together from beyond
+    /// their reach is none of them until the next step finds it: its depth shows here.
+    pub found_overlap: f64,
     /// Particles asleep through this step (see [`crate::sleep`]); their contacts are not in
     /// `contacts`.
     pub asleep: usize,

@@ -6,7 +6,7 @@ use support::Lcg;
 
 use carom_engine::cluster::{Subdomain, ThreadTransport, TrafficKind};
 use carom_engine::glam::{DVec2, DVec3};
-use carom_engine::{Aabb, BroadPhaseKind, Snapshot, Vector, World, WorldBuilder};
+use carom_engine::{Aabb, BroadPhaseKind, Snapshot, StepStats, Vector, World, WorldBuilder};
 
 /// `n` particles in `(-half, half)^DIM`, every fifth of radius `big`, the rest radius 1.
 fn scene<V: Vector>(n: usize, half: f64, big: f64, seed: u64) -> WorldBuilder<V> {
@@ -31,13 +31,13 @@ fn walled<V: Vector>(n: usize, half: f64, big: f64) -> WorldBuilder<V> {
         .walls(0.8)
 }
 
-/// Runs `steps` steps on `ranks` threads; returns rank 0's gathered state and the bytes rank 0
-/// sent.
+/// Runs `steps` steps on `ranks` threads; returns rank 0's gathered state, the bytes rank 0
+/// sent and rank 0's statistics of every step.
 fn split_run<V: Vector>(
     build: impl Fn() -> World<V> + Sync,
     ranks: usize,
     steps: u64,
-) -> (Snapshot<V>, u64) {
+) -> (Snapshot<V>, u64, Vec<StepStats>) {
     std::thread::scope(|s| {
         let handles: Vec<_> = ThreadTransport::group(ranks)
             .into_iter()
@@ -47,31 +47,28 @@ fn split_run<V: Vector>(
                 s.spawn(move || {
                     let world = build();
                     let mut sub = Subdomain::new(&world, rank, ranks).unwrap();
-                    for _ in 0..steps {
-                        sub.step(&mut t);
-                    }
+                    let stats: Vec<_> = (0..steps).map(|_| sub.step(&mut t)).collect();
                     let snapshot = sub.gather(&mut t);
-                    (snapshot, sub.traffic().total_bytes())
+                    (snapshot, sub.traffic().total_bytes(), stats)
                 })
             })
             .collect();
         let mut results: Vec<_> = handles.into_iter().map(|h| h.join().unwrap()).collect();
-        let (snapshot, bytes) = results.remove(0);
+        let (snapshot, bytes, stats) = results.remove(0);
         assert!(
-            results.iter().all(|(s, _)| s.is_none()),
+            results.iter().all(|(s, ..)| s.is_none()),
             "only rank 0 gathers"
         );
-        (snapshot.expect("rank 0 gathers"), bytes)
+        (snapshot.expect("rank 0 gathers"), bytes, stats)
     })
 }
 
 fn check_identical<V: Vector>(build: impl Fn() -> World<V> + Sync, steps: u64, ranks: &[usize]) {
     let mut whole = build();
-    for _ in 0..steps {
-        whole.step();
-    }
+    let whole_stats: Vec<_> = (0..steps).map(|_| whole.step()).collect();
     for &p in ranks {
-        let (snapshot, bytes) = split_run(&build, p, steps);
+        let (snapshot, bytes, stats) = split_run(&build, p, steps);
+        assert_eq!(stats, whole_stats, "{p} ranks: the steps' statistics");
         assert_eq!(snapshot.steps_taken, steps);
         assert_eq!(
             snapshot.storage_order,
@@ -194,7 +191,7 @@ fn a_world_split_while_asleep_continues_like_the_original() {
         w.restore(start.clone()).unwrap();
         w
     };
-    let (snapshot, _) = split_run(build, 3, 50);
+    let (snapshot, ..) = split_run(build, 3, 50);
     for _ in 0..50 {
         whole.step();
     }
@@ -211,7 +208,7 @@ fn restored_world_continues_like_the_original() {
     for _ in 0..45 {
         whole.step();
     }
-    let (snapshot, _) = split_run(build, 2, 45);
+    let (snapshot, ..) = split_run(build, 2, 45);
     let mut continued = build();
     continued.restore(snapshot).unwrap();
     for _ in 0..30 {

@@ -50,6 +50,21 @@ fn a_head_on_collision_counts_once_and_its_virial_is_the_impulse_times_the_dista
 }
 
 #[test]
+fn a_step_measures_the_overlap_it_starts_from_over_every_pair_it_finds() {
+    // 0.1 of r deep at the start; the position phase leaves them the slop deep, which is
+    // what the next step finds
+    let mut world = head_on(1.9, 0.5);
+    let first = world.step();
+    assert!((first.found_overlap - 0.1).abs() < 1e-12, "{first:?}");
+    assert!(
+        first.max_overlap > 0.0 && first.max_overlap < 0.01,
+        "{first:?}"
+    );
+    let second = world.step();
+    assert_eq!(second.found_overlap, first.max_overlap);
+}
+
+#[test]
 fn a_reading_reports_the_state_and_restarts_the_pressure_interval() {
     let mut world = head_on(1.9, 1.0);
     // before any step the overlap is measured by a search of its own: 0.1 of r = 1

@@ -68,14 +68,15 @@ fn pour<V: Vector>(n: usize, half: f64, seed: u64) -> World<V> {
     b.build().unwrap()
 }
 
-/// Steps `w` and returns the largest end-of-step overlap seen from `from` on, and how many of
-/// those steps hit the sweep cap.
+/// Steps `w` and returns the largest overlap seen from `from` on (at the ends of the steps and
+/// among the pairs each step found at its start), and how many of those steps hit the sweep
+/// cap.
 fn settle<V: Vector>(w: &mut World<V>, steps: usize, from: usize) -> (f64, usize) {
     let (mut worst, mut capped) = (0.0f64, 0);
     for s in 0..steps {
         let st = w.step();
         if s >= from {
-            worst = worst.max(st.max_overlap);
+            worst = worst.max(st.max_overlap).max(st.found_overlap);
             capped += st.capped as usize;
         }
     }

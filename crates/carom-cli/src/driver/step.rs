@@ -127,8 +127,9 @@ pub struct Driven {
     pub capped_steps: u64,
     /// Particle-particle collisions (see `carom_engine::observe`).
     pub collisions_total: u64,
-    /// The deepest overlap left by the last step and by any step, as fractions of the smaller
-    /// radius.
+    /// The deepest overlap left by the last step, and the deepest seen in any state of the run
+    /// (a step's own contacts at its end, and every pair found at its start: see
+    /// `StepStats::found_overlap`), as fractions of the smaller radius.
     pub last_overlap: f64,
     pub worst_overlap: f64,
     /// The last step that hit the velocity sweep cap.
@@ -149,7 +150,9 @@ impl Driven {
         self.capped_steps += stats.capped as u64;
         self.collisions_total += stats.collisions;
         self.last_overlap = stats.max_overlap;
-        self.worst_overlap = self.worst_overlap.max(stats.max_overlap);
+        self.worst_overlap = (self.worst_overlap)
+            .max(stats.max_overlap)
+            .max(stats.found_overlap);
         if stats.capped {
             self.last_capped = Some(step);
         }

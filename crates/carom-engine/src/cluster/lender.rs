@@ -303,12 +303,6 @@ impl<T: Transport + ?Sized, V: Vector> Exchange<V> for Lender<'_, '_, T, V> {
     }
 
     fn largest(&mut self, local: f64) -> f64 {
-        let mut mine = Writer::default();
-        mine.f64(local);
-        self.link
-            .gather(TrafficKind::Reductions, &mine.0)
-            .iter()
-            .map(|bytes| Reader::new(bytes).f64())
-            .fold(local, f64::max)
+        self.link.largest(local)
     }
 }

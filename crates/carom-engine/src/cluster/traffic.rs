@@ -1,7 +1,7 @@
 //! What ranks send each other, counted by kind.
 
 use super::transport::Transport;
-use super::wire::Writer;
+use super::wire::{Reader, Writer};
 
 /// What a message carried, for the traffic figures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -116,6 +116,16 @@ impl<T: Transport + ?Sized> Link<'_, T> {
         self.traffic.collectives[k] += 1;
         self.transport
             .all_to_all(outgoing.into_iter().map(|w| w.0).collect())
+    }
+
+    /// The largest of `local` over every rank.
+    pub fn largest(&mut self, local: f64) -> f64 {
+        let mut mine = Writer::default();
+        mine.f64(local);
+        self.gather(TrafficKind::Reductions, &mine.0)
+            .iter()
+            .map(|bytes| Reader::new(bytes).f64())
+            .fold(local, f64::max)
     }
 
     /// `local` added up over every rank.

@@ -55,8 +55,8 @@ pub use settings::{SolverSettings, VelocitySolve, RESIDUAL_FRACTION, SLOP_FRACTI
 
 pub(crate) use position::separate;
 pub(crate) use rows::{
-    moving_mass, prepare_plane_rows, prepare_rows, tally, Contacts, Moving, PlaneRow, Row,
-    RowRecord, Rows, RowsMut, WorkList,
+    deepest_placed, moving_mass, prepare_plane_rows, prepare_rows, tally, Contacts, Moving,
+    PlaneRow, Row, RowRecord, Rows, RowsMut, WorkList,
 };
 pub(crate) use settings::{plane_reach, reach};
 pub(crate) use velocity::integrate;

@@ -170,6 +170,12 @@ impl RowRecord {
         self.radius[0] + self.radius[1]
     }
 
+    /// The overlap where the row was placed last (see [`RowRecord::distance`]), as a fraction
+    /// of the smaller radius; 0 when apart.
+    pub fn placed_overlap(&self) -> f64 {
+        ((self.reach() - self.distance) / self.min_radius()).max(0.0)
+    }
+
     /// `min(r_i, r_j)`.
     #[inline]
     pub fn min_radius(&self) -> f64 {
@@ -408,20 +414,25 @@ impl<V: Vector> PlaneRow<V> {
     }
 }
 
-/// Fills `rows` (one per pair) from `row(pair)`, in parallel when asked.
+/// Fills `rows` (one per pair) from `row(pair)`, in parallel when asked; returns the deepest
+/// overlap where they were placed (see [`RowRecord::placed_overlap`]).
 pub(crate) fn prepare_rows<V: Vector>(
     rows: &mut Rows<V>,
     pairs: &[Pair],
     parallel: bool,
     row: impl Fn(Pair) -> (Row<V>, RowRecord) + Sync,
-) {
+) -> f64 {
     rows.row.resize(pairs.len(), Row::default());
     rows.record.resize(pairs.len(), RowRecord::default());
     rows.keep_headroom();
+    // (the deepest overlap in the same pass: a pass of its own would read the records again)
     let fill = |(out, keys): (RowsMut<V>, &[Pair])| {
+        let mut deepest = 0.0f64;
         for ((r, c), &p) in out.row.iter_mut().zip(out.record).zip(keys) {
             (*r, *c) = row(p);
+            deepest = deepest.max(c.placed_overlap());
         }
+        deepest
     };
     let chunks = |(row, record)| RowsMut { row, record };
     if parallel {
@@ -429,10 +440,19 @@ pub(crate) fn prepare_rows<V: Vector>(
             .zip(rows.record.par_chunks_mut(ROW_CHUNK))
             .map(chunks)
             .zip(pairs.par_chunks(ROW_CHUNK))
-            .for_each(fill);
+            .map(fill)
+            .reduce(|| 0.0, f64::max)
     } else {
-        fill((rows.as_mut(), pairs));
+        fill((rows.as_mut(), pairs))
     }
+}
+
+/// The deepest of `rows`' overlaps where they were placed (see [`RowRecord::placed_overlap`]),
+/// on this thread (a rank's rows; [`prepare_rows`] finds a world's as it places them).
+pub(crate) fn deepest_placed<V>(rows: &Rows<V>) -> f64 {
+    (rows.record.iter())
+        .map(RowRecord::placed_overlap)
+        .fold(0.0, f64::max)
 }
 
 /// Replaces `rows` with one [`PlaneRow`] per plane contact `(slot, plane)`, the particles at

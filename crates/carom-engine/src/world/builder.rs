@@ -292,6 +292,7 @@ impl<V: Vector> WorldBuilder<V> {
             steps,
             tally: self.tally,
             last_overlap: None,
+            found_overlap: 0.0,
         })
     }
 }

@@ -128,6 +128,8 @@ pub struct World<V: Vector> {
     tally: Tally,
     /// The last step's [`StepStats::max_overlap`] (`None` before the first step).
     last_overlap: Option<f64>,
+    /// This step's [`StepStats::found_overlap`].
+    found_overlap: f64,
 }
 
 impl<V: Vector> std::fmt::Debug for World<V> {

@@ -49,6 +49,7 @@ impl<V: Vector> Phases for World<V> {
             self.rows.clear();
             self.plane_contacts.clear();
             self.plane_rows.clear();
+            self.found_overlap = 0.0;
             return;
         }
         let fall = self.config.gravity.length_squared().sqrt() * dt;
@@ -98,20 +99,21 @@ impl<V: Vector> Phases for World<V> {
         let sleepers = &self.sleepers;
         // (a sleeper in a pair is a fixed obstacle: infinite mass)
         let mass = |i: usize| solver::moving_mass(p.mass[i], sleepers.sleeps(i));
-        solver::prepare_rows(&mut self.rows, &self.pairs, parallel, |(i, j)| {
-            let (i, j) = (i as usize, j as usize);
-            let (xi, xj) = (p.position[i], p.position[j]);
-            Row::across(
-                xi,
-                xj,
-                periodic.map_or(V::ZERO, |q| q.shift(xi, xj)),
-                p.radius[i],
-                p.radius[j],
-                mass(i),
-                mass(j),
-                dt,
-            )
-        });
+        self.found_overlap =
+            solver::prepare_rows(&mut self.rows, &self.pairs, parallel, |(i, j)| {
+                let (i, j) = (i as usize, j as usize);
+                let (xi, xj) = (p.position[i], p.position[j]);
+                Row::across(
+                    xi,
+                    xj,
+                    periodic.map_or(V::ZERO, |q| q.shift(xi, xj)),
+                    p.radius[i],
+                    p.radius[j],
+                    mass(i),
+                    mass(j),
+                    dt,
+                )
+            });
         solver::prepare_plane_rows(
             &mut self.plane_rows,
             &self.plane_contacts,
@@ -238,6 +240,7 @@ impl<V: Vector> Phases for World<V> {
             collisions,
             capped: solve.capped,
             max_overlap,
+            found_overlap: self.found_overlap,
         }
     }
 }

@@ -180,6 +180,7 @@ impl<V: Vector> Subdomain<V> {
             ));
         }
         self.rows.keep_headroom();
+        self.found_overlap = solver::deepest_placed(&self.rows);
         self.agree_on_borrowing(link);
         self.blocks.plan(
             own + self.halo,

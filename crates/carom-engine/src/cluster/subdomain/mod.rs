@@ -75,6 +75,8 @@ pub struct Subdomain<V: Vector> {
     /// The id of each pair's `j`.
     partners: Vec<u32>,
     rows: Rows<V>,
+    /// This step's [`StepStats::found_overlap`] among the rows this rank owns.
+    found_overlap: f64,
     plane_contacts: Vec<PlaneContact>,
     plane_rows: Vec<PlaneRow<V>>,
     /// Remembered impulses of the contacts this rank owns (relative slots), and the id of each
@@ -244,6 +246,7 @@ impl<V: Vector> Subdomain<V> {
             pairs: Vec::new(),
             partners: Vec::new(),
             rows: Default::default(),
+            found_overlap: 0.0,
             plane_contacts: Vec::new(),
             plane_rows: Vec::new(),
             memory,

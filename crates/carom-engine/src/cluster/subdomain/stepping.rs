@@ -199,6 +199,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
             collisions: counts[3],
             capped: solve.capped,
             max_overlap,
+            found_overlap: self.link.largest(s.found_overlap),
         }
     }
 }
