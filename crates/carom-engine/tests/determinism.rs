@@ -301,8 +301,9 @@ fn golden_hash_2d() {
     // restitution pass stopped chasing resting contacts' misses under the resting speed; and
     // when the shock sweep began to run block after block and to lift along gravity; and when
     // the restitution pass left met impacts' changes within the residual tolerance undone; and
-    // when planes took every particle within a radius beyond its reach as a candidate)
-    const GOLDEN: u64 = 0xcb7d_b4bc_79d9_648d;
+    // when planes took every particle within a radius beyond its reach as a candidate; and when
+    // reaches were raised to the partners' speeds)
+    const GOLDEN: u64 = 0xe2e2_596d_f367_0b90;
     let mut w = golden_scene::<DVec2>();
     for _ in 0..200 {
         w.step();

@@ -58,5 +58,5 @@ pub(crate) use rows::{
     deepest_placed, moving_mass, prepare_plane_rows, prepare_rows, tally, Contacts, Moving,
     PlaneRow, Row, RowRecord, Rows, RowsMut, WorkList,
 };
-pub(crate) use settings::{plane_reach, reach};
+pub(crate) use settings::{plane_reach, raise_to_partners, reach, reach_covers_pushes};
 pub(crate) use velocity::integrate;

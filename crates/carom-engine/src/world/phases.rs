@@ -75,6 +75,19 @@ impl<V: Vector> Phases for World<V> {
             &mut self.pairs,
             &mut self.sorter.scratch,
         );
+        if solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes) {
+            let p = &self.store;
+            let speed = |j: usize| p.velocity[j].length_squared().sqrt();
+            let (reach, radius) = (&mut self.reach, &p.radius);
+            if solver::raise_to_partners(reach, radius, &self.pairs, speed, |_| true, fall, dt) {
+                self.broad_phase.find_pairs_in(
+                    &self.store.position,
+                    &self.reach,
+                    &mut self.pairs,
+                    &mut self.sorter.scratch,
+                );
+            }
+        }
         match sleep {
             Some(settings) => {
                 // (rest times from the first step that may sleep on: see `World::rest`)

@@ -45,19 +45,11 @@ impl<V: Vector> Subdomain<V> {
         }
     }
 
-    /// Receives ghosts (the particles of other ranks within reach of own ones), runs the broad
-    /// phase over own and ghost particles and keeps the candidates whose lower slot is own;
-    /// then the own plane candidates, the rows, and the remembered impulses.
-    pub(super) fn find_contacts<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
+    /// Sends this rank's box and largest reach, and its ghosts with their reach and speed, to
+    /// the others, receives theirs, and finds the pairs among own and ghost particles within
+    /// reach (`self.found`, in search indices).
+    fn search_with_ghosts<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
         let own = self.own;
-        let dt = self.config.dt;
-        let fall = self.config.gravity.length_squared().sqrt() * dt;
-        self.reach.clear();
-        for s in 0..own {
-            let (v, r) = (self.window.velocity[s], self.window.radius[s]);
-            self.reach
-                .push(solver::reach(r, v.length_squared().sqrt() + fall, dt));
-        }
         let max_reach = largest(&self.reach);
         // A particle j of another rank can reach an own one only from within the own bounding
         // box grown by this rank's largest reach plus j's rank's: each rank sends its box and
@@ -91,18 +83,19 @@ impl<V: Vector> Subdomain<V> {
                         .vector(x)
                         .f64(self.reach[s])
                         .f64(self.window.radius[s])
-                        .f64(self.window.mass[s]);
+                        .f64(self.window.mass[s])
+                        .f64(self.window.velocity[s].length_squared().sqrt());
                 }
             }
         }
         let search = &mut self.search;
         search.clear();
         for s in 0..own {
+            let v = self.window.velocity[s];
             search.push(
                 self.window.position[s],
-                self.reach[s],
-                self.window.radius[s],
-                self.window.mass[s],
+                [self.reach[s], self.window.radius[s], self.window.mass[s]],
+                v.length_squared().sqrt(),
                 self.ids[s],
             );
         }
@@ -112,11 +105,40 @@ impl<V: Vector> Subdomain<V> {
                 let (slot, id) = (r.u32(), r.u32());
                 let (x, reach, radius, mass) = (r.vector(), r.f64(), r.f64(), r.f64());
                 search.ghost_slot.push(slot);
-                search.push(x, reach, radius, mass, id);
+                search.push(x, [reach, radius, mass], r.f64(), id);
             }
         }
         self.broad_phase
             .find_pairs(&search.position, &search.reach, &mut self.found);
+    }
+
+    /// Receives ghosts (the particles of other ranks within reach of own ones), runs the broad
+    /// phase over own and ghost particles and keeps the candidates whose lower slot is own;
+    /// then the own plane candidates, the rows, and the remembered impulses.
+    pub(super) fn find_contacts<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
+        let own = self.own;
+        let dt = self.config.dt;
+        let fall = self.config.gravity.length_squared().sqrt() * dt;
+        self.reach.clear();
+        for s in 0..own {
+            let (v, r) = (self.window.velocity[s], self.window.radius[s]);
+            self.reach
+                .push(solver::reach(r, v.length_squared().sqrt() + fall, dt));
+        }
+        self.search_with_ghosts(link);
+        // (as a world does: see `solver::raise_to_partners`; a ghost's speed came with it, and
+        // every rank searches again when any raised a reach)
+        if solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes) {
+            let search = &self.search;
+            let speed = |k: usize| search.speed[k];
+            let (reach, radius, found) = (&mut self.reach, &search.radius, &self.found);
+            let grew =
+                solver::raise_to_partners(reach, radius, found, speed, |k| k < own, fall, dt);
+            if link.sum(&[grew as u64])[0] > 0 {
+                self.search_with_ghosts(link);
+            }
+        }
+        let search = &self.search;
         let first = self.first_slot;
         self.candidates.clear();
         for &(a, b) in &self.found {

@@ -118,6 +118,8 @@ struct Search<V> {
     radius: Vec<f64>,
     mass: Vec<f64>,
     id: Vec<u32>,
+    /// `|v|` of each (length / time).
+    speed: Vec<f64>,
     /// Global slot of each ghost.
     ghost_slot: Vec<u32>,
     /// (id, search index), sorted, for placing records after a migration.
@@ -131,14 +133,17 @@ impl<V: Vector> Search<V> {
         self.radius.clear();
         self.mass.clear();
         self.id.clear();
+        self.speed.clear();
         self.ghost_slot.clear();
     }
 
-    fn push(&mut self, x: V, reach: f64, radius: f64, mass: f64, id: u32) {
+    /// Adds a particle at `x` with `[reach, radius, mass]`, moving at `speed`.
+    fn push(&mut self, x: V, [reach, radius, mass]: [f64; 3], speed: f64, id: u32) {
         self.position.push(x);
         self.reach.push(reach);
         self.radius.push(radius);
         self.mass.push(mass);
+        self.speed.push(speed);
         self.id.push(id);
     }
 
