@@ -83,16 +83,17 @@ pub(crate) fn reach_covers_pushes<V: Vector>(
     !settings.lecture_only(elastic)
 }
 
-/// How close a particle of radius `radius` and step reach `reach` (see [`reach`]) must come to
-/// a plane to be its candidate this step: one radius beyond its reach. A particle's reach
-/// covers its own move, but a neighbour can push it faster than it was moving: in the lecture
-/// pile (seed 25, step 160) a disc moving at 26.7 struck one resting 0.1 r from the right
-/// wall and drove it into the wall at 19.5; the wall was not its candidate, and the pair was
-/// left 7.9 % of r deep between the wall and the striker. A push moves a particle less than a radius a step unless
-/// the two pass through each other, so one radius more covers it. (Candidates beyond their
-/// gap cost one speculative row each, which the sweeps pass over; only particles near a plane
-/// have them.) When planes bounce in the move (see [`SolverSettings::planes_in_move`]), the
-/// same margin lets the position phase pay for every lift out of a plane from the candidate's
+/// How close a particle of radius `radius` and step reach `reach` (see [`reach`]; raised to
+/// its partners' speeds when contacts can rest, see [`raise_to_partners`]) must come to a
+/// plane to be its candidate this step: one radius beyond its reach. A neighbour can push a
+/// particle faster than either reach says: in the lecture pile (seed 25, step 160) a disc
+/// moving at 26.7 struck one resting 0.1 r from the right wall and drove it into the wall at
+/// 19.5; the wall was not its candidate, and the pair was left 7.9 % of r deep between the
+/// wall and the striker. A push moves a particle less than a radius a step unless the two
+/// pass through each other, so one radius more covers it. (Candidates beyond their gap cost
+/// one speculative row each, which the sweeps pass over; only particles near a plane have
+/// them.) When planes bounce in the move (see [`SolverSettings::planes_in_move`]), the same
+/// margin lets the position phase pay for every lift out of a plane from the candidate's
 /// speed (see [`keep_energy`](super::bounces::keep_energy)).
 #[inline]
 pub(crate) fn plane_reach(reach: f64, radius: f64) -> f64 {
