@@ -34,6 +34,23 @@ pub trait BroadPhase<V: Vector>: Send + Sync {
         self.find_pairs(positions, radii, pairs);
     }
 
+    /// Makes `pairs` what [`BroadPhase::find_pairs_in`] finds with the radii `raised`, each at
+    /// least its `radii` counterpart, when `pairs` is what it found with `radii` just before,
+    /// over the same `positions` and `scratch` (see `solver::raise_to_partners`). A larger
+    /// radius only adds pairs, each of them with a particle whose radius grew: a grid searches
+    /// from those alone. By default, the search again.
+    fn find_raised_pairs_in(
+        &mut self,
+        positions: &[V],
+        radii: &[f64],
+        raised: &[f64],
+        pairs: &mut Vec<Pair>,
+        scratch: &mut CellScratch,
+    ) {
+        let _ = radii;
+        self.find_pairs_in(positions, raised, pairs, scratch);
+    }
+
     /// Short name for reports ("brute", "grid").
     fn name(&self) -> &'static str;
 

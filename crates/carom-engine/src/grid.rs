@@ -17,6 +17,8 @@
 //! one largest diameter wide this is the lecture's 3x3 (3x3x3) block; smaller cells or mixed
 //! radii (its radius 1 and 3 demo) widen the search instead of missing contacts.
 
+mod raised;
+
 use crate::broadphase::{collect_pairs, BroadPhase, CellScratch, Pair, PARALLEL_MIN};
 use crate::bucket::{counting_sort, counting_sort_parallel};
 use crate::domain::Aabb;
@@ -42,6 +44,8 @@ pub struct Grid<V> {
     /// Scratch of the parallel counting sort.
     run_totals: Vec<u32>,
     buffers: Vec<Vec<Pair>>,
+    /// The pairs raised radii add (see [`raised`]).
+    raised_extra: Vec<Pair>,
     overflow: SpatialHash,
     escaped: bool,
     /// Periodic axes: neighbour cells wrap around them, pairs are tested at the minimum image.
@@ -195,6 +199,7 @@ impl<V: Vector> Grid<V> {
             ids: Vec::new(),
             run_totals: Vec::new(),
             buffers: Vec::new(),
+            raised_extra: Vec::new(),
             overflow: SpatialHash::new(),
             escaped: false,
             periodic: None,
@@ -481,6 +486,26 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
         lend(self, scratch);
         self.find_pairs(positions, radii, pairs);
         lend(self, scratch);
+    }
+
+    fn find_raised_pairs_in(
+        &mut self,
+        positions: &[V],
+        radii: &[f64],
+        raised: &[f64],
+        pairs: &mut Vec<Pair>,
+        scratch: &mut CellScratch,
+    ) {
+        // (the buckets of the search just made are in `scratch`; a periodic grid, or one that
+        // handed the search to the hash, searches again)
+        if self.periodic.is_some() || self.escaped {
+            return self.find_pairs_in(positions, raised, pairs, scratch);
+        }
+        std::mem::swap(&mut self.cell_start, &mut scratch.starts);
+        std::mem::swap(&mut self.ids, &mut scratch.order);
+        self.add_raised_pairs(positions, radii, raised, pairs);
+        std::mem::swap(&mut self.cell_start, &mut scratch.starts);
+        std::mem::swap(&mut self.ids, &mut scratch.order);
     }
 
     fn name(&self) -> &'static str {

@@ -271,6 +271,7 @@ impl<V: Vector> WorldBuilder<V> {
             contacts_by_id: OnceCell::new(),
             broad_phase,
             reach: Vec::new(),
+            raised: Vec::new(),
             pairs: Vec::new(),
             rows: Rows::with_capacity(n),
             plane_contacts: Vec::new(),

@@ -89,8 +89,11 @@ pub struct World<V: Vector> {
     by_id: OnceCell<Particles<V>>,
     contacts_by_id: OnceCell<Vec<Pair>>,
     broad_phase: Box<dyn BroadPhase<V>>,
-    /// Each slot's reach this step: radius plus `min(|v| dt, radius)`.
+    /// Each slot's reach this step: radius plus `min(|v| dt, radius)` (see
+    /// [`crate::solver::raise_to_partners`] for when that speed is a partner's).
     reach: Vec<f64>,
+    /// The reaches raised to the partners' speeds, while the search adds their pairs.
+    raised: Vec<f64>,
     /// This step's contact candidates (pairs within reach), as storage slots, sorted.
     pairs: Vec<Pair>,
     /// The solver's data for each pair.

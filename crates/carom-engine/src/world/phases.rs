@@ -78,14 +78,17 @@ impl<V: Vector> Phases for World<V> {
         if solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes) {
             let p = &self.store;
             let speed = |j: usize| p.velocity[j].length_squared().sqrt();
-            let (reach, radius) = (&mut self.reach, &p.radius);
-            if solver::raise_to_partners(reach, radius, &self.pairs, speed, |_| true, fall, dt) {
-                self.broad_phase.find_pairs_in(
-                    &self.store.position,
+            self.raised.clone_from(&self.reach);
+            let (raised, radius) = (&mut self.raised, &p.radius);
+            if solver::raise_to_partners(raised, radius, &self.pairs, speed, |_| true, fall, dt) {
+                self.broad_phase.find_raised_pairs_in(
+                    &p.position,
                     &self.reach,
+                    &self.raised,
                     &mut self.pairs,
                     &mut self.sorter.scratch,
                 );
+                std::mem::swap(&mut self.reach, &mut self.raised);
             }
         }
         match sleep {

@@ -1,0 +1,168 @@
+//! The pairs a search with raised radii adds to the search just made (see
+//! [`BroadPhase::find_raised_pairs_in`](crate::broadphase::BroadPhase::find_raised_pairs_in)):
+//! found from the particles whose radius grew alone, in that search's buckets.
+//!
+//! `is_overlapping` grows with either radius in floating point too (a sum, a square), so the
+//! raised search finds every pair the first found, and each pair it adds has a particle whose
+//! radius grew: scanning from those finds them all. A pair of two grown particles is taken from
+//! the lower one. The first search's test is made again, with the same operands in the same
+//! order up to sign, for the same bits, so no pair is added twice.
+
+use super::{largest, Grid};
+use crate::broadphase::{keep_headroom, Pair, CHUNK, PARALLEL_SEARCH_MIN};
+use crate::response::is_overlapping;
+use crate::vector::Vector;
+use rayon::prelude::*;
+
+impl<V: Vector> Grid<V> {
+    /// Adds to `pairs` (sorted, found with `radii` in the current buckets) the pairs within
+    /// `raised`, keeping them sorted.
+    pub(super) fn add_raised_pairs(
+        &mut self,
+        positions: &[V],
+        radii: &[f64],
+        raised: &[f64],
+        pairs: &mut Vec<Pair>,
+    ) {
+        let n = positions.len();
+        let max_raised = largest(raised);
+        let layout = self.layout;
+        let (cell_start, ids) = (&self.cell_start, &self.ids);
+        let grown = |k: usize| raised[k] > radii[k];
+        let scan = |i: usize, out: &mut Vec<Pair>| {
+            let (pi, ri) = (positions[i], raised[i]);
+            let mut lo = [0usize; 3];
+            let mut hi = [0usize; 3];
+            for a in 0..V::DIM {
+                (lo[a], hi[a]) = layout.axis_range(a, pi.get(a), ri + max_raised);
+            }
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    let row = (z * layout.cells[1] + y) * layout.cells[0];
+                    let start = cell_start[row + lo[0]] as usize;
+                    let end = cell_start[row + hi[0] + 1] as usize;
+                    for &j in &ids[start..end] {
+                        let j = j as usize;
+                        if j == i || (j < i && grown(j)) {
+                            continue;
+                        }
+                        let pj = positions[j];
+                        if is_overlapping(pi, pj, ri, raised[j])
+                            && !is_overlapping(pi, pj, radii[i], radii[j])
+                        {
+                            out.push((i.min(j) as u32, i.max(j) as u32));
+                        }
+                    }
+                }
+            }
+        };
+        let chunks = n.div_ceil(CHUNK);
+        if self.buffers.len() < chunks {
+            self.buffers.resize_with(chunks, Vec::new);
+        }
+        let work = |(c, out): (usize, &mut Vec<Pair>)| {
+            out.clear();
+            for i in (c * CHUNK..((c + 1) * CHUNK).min(n)).filter(|&i| grown(i)) {
+                scan(i, out);
+            }
+            keep_headroom(out);
+        };
+        if n >= PARALLEL_SEARCH_MIN {
+            self.buffers[..chunks]
+                .par_iter_mut()
+                .enumerate()
+                .for_each(work);
+        } else {
+            self.buffers[..chunks].iter_mut().enumerate().for_each(work);
+        }
+        let extra = &mut self.raised_extra;
+        extra.clear();
+        for b in &self.buffers[..chunks] {
+            extra.extend_from_slice(b);
+        }
+        keep_headroom(extra);
+        if extra.is_empty() {
+            return;
+        }
+        extra.sort_unstable();
+        merge_into(pairs, extra);
+    }
+}
+
+/// Merges sorted `extra` into sorted `pairs` (no pair in both), from the back, in place.
+fn merge_into(pairs: &mut Vec<Pair>, extra: &[Pair]) {
+    let (old, add) = (pairs.len(), extra.len());
+    pairs.resize(old + add, (0, 0));
+    keep_headroom(pairs);
+    let (mut a, mut b) = (old, add);
+    for k in (0..old + add).rev() {
+        // (`a` and `b`: how many of each list are still to place)
+        if b == 0 {
+            break;
+        }
+        if a > 0 && pairs[a - 1] > extra[b - 1] {
+            pairs[k] = pairs[a - 1];
+            a -= 1;
+        } else {
+            pairs[k] = extra[b - 1];
+            b -= 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::merge_into;
+    use crate::broadphase::{BroadPhase, CellScratch};
+    use crate::brute::BruteForce;
+    use crate::domain::Aabb;
+    use crate::grid::Grid;
+    use glam::DVec2;
+
+    /// Raised radii find in the buckets of the first search exactly the pairs a search with
+    /// them finds, for every cell size, with mixed radii, some raised and some not.
+    #[test]
+    fn a_raised_search_finds_what_a_search_with_the_raised_radii_finds() {
+        let mut s = 99u64;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let n = 3000;
+        let pos: Vec<DVec2> = (0..n)
+            .map(|_| DVec2::new(next() * 80.0 - 40.0, next() * 80.0 - 40.0))
+            .collect();
+        let radii: Vec<f64> = (0..n).map(|i| if i % 9 == 0 { 2.0 } else { 0.6 }).collect();
+        let raised: Vec<f64> = (radii.iter())
+            .map(|&r| if next() < 0.3 { r * (1.0 + next()) } else { r })
+            .collect();
+        let mut expected = Vec::new();
+        BruteForce::new().find_pairs(&pos, &raised, &mut expected);
+        let domain = Aabb::new(DVec2::splat(-40.0), DVec2::splat(40.0)).unwrap();
+        for cells in [None, Some([5, 7]), Some([60, 60]), Some([200, 200])] {
+            let mut grid = Grid::new(Some(domain), cells.as_ref().map(|c| &c[..])).unwrap();
+            let mut scratch = CellScratch::default();
+            let mut pairs = Vec::new();
+            grid.find_pairs_in(&pos, &radii, &mut pairs, &mut scratch);
+            let before = pairs.len();
+            grid.find_raised_pairs_in(&pos, &radii, &raised, &mut pairs, &mut scratch);
+            assert!(
+                pairs.len() > before,
+                "cells {cells:?}: the raise adds pairs"
+            );
+            assert_eq!(pairs, expected, "cells {cells:?}");
+        }
+    }
+
+    #[test]
+    fn merging_keeps_both_lists_in_order() {
+        let mut pairs = vec![(0, 3), (1, 2), (4, 9)];
+        merge_into(&mut pairs, &[(0, 1), (2, 5), (7, 8)]);
+        assert_eq!(pairs, [(0, 1), (0, 3), (1, 2), (2, 5), (4, 9), (7, 8)]);
+        let mut pairs = vec![(5, 6)];
+        merge_into(&mut pairs, &[(0, 1), (1, 2)]);
+        assert_eq!(pairs, [(0, 1), (1, 2), (5, 6)]);
+    }
+}
