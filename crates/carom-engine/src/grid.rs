@@ -272,6 +272,35 @@ impl<V: Vector> Grid<V> {
     }
 }
 
+/// Calls `visit(j)` for every particle `j` in the cells within `reach` of `x` (see
+/// [`GridLayout::axis_range`]), from the buckets `cell_start` and `ids`.
+#[inline(always)]
+pub(crate) fn for_each_near<V: Vector>(
+    layout: &GridLayout,
+    cell_start: &[u32],
+    ids: &[u32],
+    x: V,
+    reach: f64,
+    mut visit: impl FnMut(usize),
+) {
+    let mut lo = [0usize; 3];
+    let mut hi = [0usize; 3];
+    for a in 0..V::DIM {
+        (lo[a], hi[a]) = layout.axis_range(a, x.get(a), reach);
+    }
+    for z in lo[2]..=hi[2] {
+        for y in lo[1]..=hi[1] {
+            let row = (z * layout.cells[1] + y) * layout.cells[0];
+            // Cells lo..=hi of one row are contiguous in `ids`.
+            let start = cell_start[row + lo[0]] as usize;
+            let end = cell_start[row + hi[0] + 1] as usize;
+            for &j in &ids[start..end] {
+                visit(j as usize);
+            }
+        }
+    }
+}
+
 /// `reach` widened by a relative 1e-9 (far above the rounding of the distance test) and by the
 /// rounding of `coordinate +- reach` itself. Searching the cells of `coordinate +- widened`
 /// with any monotone cell function then never misses a particle within `reach`; the grid, the
@@ -447,25 +476,11 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
         let (cell_start, ids) = (&self.cell_start, &self.ids);
         collect_pairs(positions.len(), &mut self.buffers, pairs, |i, out| {
             let (pi, ri) = (positions[i], radii[i]);
-            let mut lo = [0usize; 3];
-            let mut hi = [0usize; 3];
-            for a in 0..V::DIM {
-                (lo[a], hi[a]) = layout.axis_range(a, pi.get(a), ri + max_radius);
-            }
-            for z in lo[2]..=hi[2] {
-                for y in lo[1]..=hi[1] {
-                    let row = (z * layout.cells[1] + y) * layout.cells[0];
-                    // Cells lo..=hi of one row are contiguous in `ids`.
-                    let start = cell_start[row + lo[0]] as usize;
-                    let end = cell_start[row + hi[0] + 1] as usize;
-                    for &j in &ids[start..end] {
-                        let j = j as usize;
-                        if (j > i) & is_overlapping(pi, positions[j], ri, radii[j]) {
-                            out.push((i as u32, j as u32));
-                        }
-                    }
+            for_each_near(&layout, cell_start, ids, pi, ri + max_radius, |j| {
+                if (j > i) & is_overlapping(pi, positions[j], ri, radii[j]) {
+                    out.push((i as u32, j as u32));
                 }
-            }
+            });
         });
     }
 

@@ -8,7 +8,7 @@
 //! the lower one. The first search's test is made again, with the same operands in the same
 //! order up to sign, for the same bits, so no pair is added twice.
 
-use super::{largest, Grid};
+use super::{for_each_near, largest, Grid};
 use crate::broadphase::{keep_headroom, Pair, CHUNK, PARALLEL_SEARCH_MIN};
 use crate::response::is_overlapping;
 use crate::vector::Vector;
@@ -31,30 +31,17 @@ impl<V: Vector> Grid<V> {
         let grown = |k: usize| raised[k] > radii[k];
         let scan = |i: usize, out: &mut Vec<Pair>| {
             let (pi, ri) = (positions[i], raised[i]);
-            let mut lo = [0usize; 3];
-            let mut hi = [0usize; 3];
-            for a in 0..V::DIM {
-                (lo[a], hi[a]) = layout.axis_range(a, pi.get(a), ri + max_raised);
-            }
-            for z in lo[2]..=hi[2] {
-                for y in lo[1]..=hi[1] {
-                    let row = (z * layout.cells[1] + y) * layout.cells[0];
-                    let start = cell_start[row + lo[0]] as usize;
-                    let end = cell_start[row + hi[0] + 1] as usize;
-                    for &j in &ids[start..end] {
-                        let j = j as usize;
-                        if j == i || (j < i && grown(j)) {
-                            continue;
-                        }
-                        let pj = positions[j];
-                        if is_overlapping(pi, pj, ri, raised[j])
-                            && !is_overlapping(pi, pj, radii[i], radii[j])
-                        {
-                            out.push((i.min(j) as u32, i.max(j) as u32));
-                        }
-                    }
+            for_each_near(&layout, cell_start, ids, pi, ri + max_raised, |j| {
+                if j == i || (j < i && grown(j)) {
+                    return;
                 }
-            }
+                let pj = positions[j];
+                if is_overlapping(pi, pj, ri, raised[j])
+                    && !is_overlapping(pi, pj, radii[i], radii[j])
+                {
+                    out.push((i.min(j) as u32, i.max(j) as u32));
+                }
+            });
         };
         let chunks = n.div_ceil(CHUNK);
         if self.buffers.len() < chunks {
