@@ -216,7 +216,7 @@ fn pile_cases(args: &BenchArgs) -> Vec<Case> {
         return vec![case("2D lecture pile, falling", lecture, 10, 20)];
     }
     // 100,000 spheres poured into an 80 x 240 x 80 box: landing by step 400, settling in the
-    // pile after, asleep whole from step 1047 (see docs/benchmarks.md)
+    // pile after, asleep whole from step 996 (see docs/benchmarks.md)
     let pour = pile_toml(
         3,
         100_000,
