@@ -571,13 +571,7 @@ mod tests {
         // a deterministic cloud with mixed radii and some coincident centres
         let mut pos = Vec::new();
         let mut rad = Vec::new();
-        let mut s = 12345u64;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::testing::uniform(12345);
         for i in 0..n {
             pos.push(DVec3::new(
                 next() * 30.0 - 15.0,

@@ -169,13 +169,7 @@ mod tests {
     use glam::{DVec2, DVec3};
 
     fn cloud(n: usize, spread: f64) -> (Vec<DVec3>, Vec<f64>) {
-        let mut s = 7u64;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::testing::uniform(7);
         let mut pos = Vec::new();
         let mut rad = Vec::new();
         for i in 0..n {

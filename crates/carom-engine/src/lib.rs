@@ -60,6 +60,8 @@ pub mod schedule;
 pub mod sleep;
 pub mod solver;
 pub mod step;
+#[cfg(test)]
+mod testing;
 pub mod theory;
 pub mod timing;
 pub mod vector;

@@ -110,13 +110,7 @@ mod tests {
     /// them finds, for every cell size, with mixed radii, some raised and some not.
     #[test]
     fn a_raised_search_finds_what_a_search_with_the_raised_radii_finds() {
-        let mut s = 99u64;
-        let mut next = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::testing::uniform(99);
         let n = 3000;
         let pos: Vec<DVec2> = (0..n)
             .map(|_| DVec2::new(next() * 80.0 - 40.0, next() * 80.0 - 40.0))

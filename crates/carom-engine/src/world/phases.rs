@@ -52,45 +52,7 @@ impl<V: Vector> Phases for World<V> {
             self.found_overlap = 0.0;
             return;
         }
-        let fall = self.config.gravity.length_squared().sqrt() * dt;
-        let reach = |(out, (v, &r)): (&mut f64, (&V, &f64))| {
-            *out = solver::reach(r, v.length_squared().sqrt() + fall, dt);
-        };
-        let p = &self.store;
-        self.reach.resize(p.len(), 0.0);
-        if parallel {
-            self.reach
-                .par_iter_mut()
-                .zip(p.velocity.par_iter().zip(p.radius.par_iter()))
-                .for_each(reach);
-        } else {
-            self.reach
-                .iter_mut()
-                .zip(p.velocity.iter().zip(p.radius.iter()))
-                .for_each(reach);
-        }
-        self.broad_phase.find_pairs_in(
-            &self.store.position,
-            &self.reach,
-            &mut self.pairs,
-            &mut self.sorter.scratch,
-        );
-        if solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes) {
-            let p = &self.store;
-            let speed = |j: usize| p.velocity[j].length_squared().sqrt();
-            self.raised.clone_from(&self.reach);
-            let (raised, radius) = (&mut self.raised, &p.radius);
-            if solver::raise_to_partners(raised, radius, &self.pairs, speed, |_| true, fall, dt) {
-                self.broad_phase.find_raised_pairs_in(
-                    &p.position,
-                    &self.reach,
-                    &self.raised,
-                    &mut self.pairs,
-                    &mut self.sorter.scratch,
-                );
-                std::mem::swap(&mut self.reach, &mut self.raised);
-            }
-        }
+        self.find_pairs(parallel);
         match sleep {
             Some(settings) => {
                 // (rest times from the first step that may sleep on: see `World::rest`)
@@ -262,6 +224,51 @@ impl<V: Vector> Phases for World<V> {
 }
 
 impl<V: Vector> World<V> {
+    /// This step's pairs within reach (see [`solver::reach`]), the reaches raised to the
+    /// partners' speeds when contacts can rest (see [`solver::raise_to_partners`]).
+    fn find_pairs(&mut self, parallel: bool) {
+        let dt = self.config.dt;
+        let fall = self.config.gravity.length_squared().sqrt() * dt;
+        let reach = |(out, (v, &r)): (&mut f64, (&V, &f64))| {
+            *out = solver::reach(r, v.length_squared().sqrt() + fall, dt);
+        };
+        let p = &self.store;
+        self.reach.resize(p.len(), 0.0);
+        if parallel {
+            self.reach
+                .par_iter_mut()
+                .zip(p.velocity.par_iter().zip(p.radius.par_iter()))
+                .for_each(reach);
+        } else {
+            self.reach
+                .iter_mut()
+                .zip(p.velocity.iter().zip(p.radius.iter()))
+                .for_each(reach);
+        }
+        self.broad_phase.find_pairs_in(
+            &self.store.position,
+            &self.reach,
+            &mut self.pairs,
+            &mut self.sorter.scratch,
+        );
+        if solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes) {
+            let p = &self.store;
+            let speed = |j: usize| p.velocity[j].length_squared().sqrt();
+            self.raised.clone_from(&self.reach);
+            let (raised, radius) = (&mut self.raised, &p.radius);
+            if solver::raise_to_partners(raised, radius, &self.pairs, speed, |_| true, fall, dt) {
+                self.broad_phase.find_raised_pairs_in(
+                    &p.position,
+                    &self.reach,
+                    &self.raised,
+                    &mut self.pairs,
+                    &mut self.sorter.scratch,
+                );
+                std::mem::swap(&mut self.reach, &mut self.raised);
+            }
+        }
+    }
+
     /// Every (slot, plane) with the particle within reach of the plane, sorted.
     fn find_plane_contacts(&mut self, parallel: bool) {
         self.plane_contacts.clear();
