@@ -34,21 +34,21 @@ pub trait BroadPhase<V: Vector>: Send + Sync {
         self.find_pairs(positions, radii, pairs);
     }
 
-    /// Makes `pairs` what [`BroadPhase::find_pairs_in`] finds with the radii `raised`, each at
-    /// least its `radii` counterpart, when `pairs` is what it found with `radii` just before,
-    /// over the same `positions` and `scratch` (see `solver::raise_to_partners`). A larger
-    /// radius only adds pairs, each of them with a particle whose radius grew: a grid searches
-    /// from those alone. By default, the search again.
-    fn find_raised_pairs_in(
+    /// [`BroadPhase::find_pairs_in`] with each radius raised to what its particle would have
+    /// at the speed of its fastest partner (see `solver::raise_to_partners` for why): makes
+    /// `raised[i]` the largest of `radii[i]` and `raising.radius_at(i, speed(j))` over every
+    /// `j` within `radii` of `i`, and `pairs` every pair within `raised`, sorted. By default, a
+    /// search, the raise over the pairs it found, and a search again when a radius grew.
+    fn find_pairs_raised_in(
         &mut self,
         positions: &[V],
         radii: &[f64],
-        raised: &[f64],
+        raising: &Raising<'_>,
+        raised: &mut Vec<f64>,
         pairs: &mut Vec<Pair>,
         scratch: &mut CellScratch,
     ) {
-        let _ = radii;
-        self.find_pairs_in(positions, raised, pairs, scratch);
+        search_raise_search(self, positions, radii, raising, raised, pairs, scratch);
     }
 
     /// Short name for reports ("brute", "grid").
@@ -71,6 +71,69 @@ pub struct CellScratch {
     pub(crate) starts: Vec<u32>,
     /// The particles in cell order.
     pub(crate) order: Vec<u32>,
+}
+
+/// How a particle's radius grows with the speed of a partner that may push it (see
+/// [`BroadPhase::find_pairs_raised_in`]).
+#[derive(Clone, Copy)]
+pub struct Raising<'a> {
+    /// Particle `i`'s speed (length / time, >= 0).
+    pub speed: &'a (dyn Fn(usize) -> f64 + Sync),
+    /// Particle `i`'s radius were it moving at the given speed; nondecreasing in the speed.
+    pub radius_at: &'a (dyn Fn(usize, f64) -> f64 + Sync),
+}
+
+impl std::fmt::Debug for Raising<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Raising")
+    }
+}
+
+/// [`BroadPhase::find_pairs_raised_in`] as a search, the raise over the pairs it found (see
+/// [`raise_to_partners`]) and, when a radius grew, a search again.
+pub(crate) fn search_raise_search<V: Vector, B: BroadPhase<V> + ?Sized>(
+    broad_phase: &mut B,
+    positions: &[V],
+    radii: &[f64],
+    raising: &Raising<'_>,
+    raised: &mut Vec<f64>,
+    pairs: &mut Vec<Pair>,
+    scratch: &mut CellScratch,
+) {
+    broad_phase.find_pairs_in(positions, radii, pairs, scratch);
+    raised.clear();
+    raised.extend_from_slice(radii);
+    if raise_to_partners(raised, pairs, raising.speed, raising.radius_at, |_| true) {
+        broad_phase.find_pairs_in(positions, raised, pairs, scratch);
+    }
+}
+
+/// Raises `raised[i]` to `radius_at(i, speed(j))` and `raised[j]` to `radius_at(j, speed(i))`
+/// for every pair `(i, j)` in `pairs`, for the particles `own` says are the caller's; returns
+/// whether any grew. The largest wins whatever the order (`radius_at` grows with the speed),
+/// so the result is the same for every order of the pairs.
+pub(crate) fn raise_to_partners(
+    raised: &mut [f64],
+    pairs: &[Pair],
+    speed: impl Fn(usize) -> f64,
+    radius_at: impl Fn(usize, f64) -> f64,
+    own: impl Fn(usize) -> bool,
+) -> bool {
+    let mut grew = false;
+    let mut raise = |i: usize, partner: usize| {
+        if own(i) {
+            let r = radius_at(i, speed(partner));
+            if r > raised[i] {
+                raised[i] = r;
+                grew = true;
+            }
+        }
+    };
+    for &(i, j) in pairs {
+        raise(i as usize, j as usize);
+        raise(j as usize, i as usize);
+    }
+    grew
 }
 
 /// Which broad phase a world uses.

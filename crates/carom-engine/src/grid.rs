@@ -19,7 +19,9 @@
 
 mod raised;
 
-use crate::broadphase::{collect_pairs, BroadPhase, CellScratch, Pair, PARALLEL_MIN};
+use crate::broadphase::{
+    collect_pairs, search_raise_search, BroadPhase, CellScratch, Pair, Raising, PARALLEL_MIN,
+};
 use crate::bucket::{counting_sort, counting_sort_parallel};
 use crate::domain::Aabb;
 use crate::error::EngineError;
@@ -239,6 +241,32 @@ impl<V: Vector> Grid<V> {
         self.layout = layout;
     }
 
+    /// True when more particles are outside the domain than the grid's border cells should
+    /// hold (see [`ESCAPEES_BEFORE_HASHING`]).
+    fn too_many_outside(&self, positions: &[V]) -> bool {
+        let Some(domain) = self.domain else {
+            return false;
+        };
+        let outside = if positions.len() >= PARALLEL_MIN {
+            positions
+                .par_iter()
+                .filter(|&&x| !domain.contains(x))
+                .count()
+        } else {
+            positions.iter().filter(|&&x| !domain.contains(x)).count()
+        };
+        outside > ESCAPEES_BEFORE_HASHING.max(positions.len() / 64)
+    }
+
+    /// Swaps the grid's bucket arrays with `scratch`'s (see [`BroadPhase::find_pairs_in`]): the
+    /// grid's own stay empty, and the lent ones go back holding the search's buckets, which
+    /// nothing reads after it.
+    fn lend(&mut self, scratch: &mut CellScratch) {
+        std::mem::swap(&mut self.cell_of, &mut scratch.keys);
+        std::mem::swap(&mut self.cell_start, &mut scratch.starts);
+        std::mem::swap(&mut self.ids, &mut scratch.order);
+    }
+
     /// Bins every particle: the counting sort that fills the buckets.
     fn build_buckets(&mut self, positions: &[V]) {
         let layout = self.layout;
@@ -454,19 +482,9 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
         // Particles that left the domain all land in its border cells; if many did, those
         // cells would turn the search quadratic. The unbounded hash finds exactly the same
         // pairs, so use it for such steps instead.
-        if let Some(domain) = self.domain {
-            let outside = if positions.len() >= PARALLEL_MIN {
-                positions
-                    .par_iter()
-                    .filter(|&&x| !domain.contains(x))
-                    .count()
-            } else {
-                positions.iter().filter(|&&x| !domain.contains(x)).count()
-            };
-            if outside > ESCAPEES_BEFORE_HASHING.max(positions.len() / 64) {
-                self.escaped = true;
-                return self.overflow.find_pairs(positions, radii, pairs);
-            }
+        if self.too_many_outside(positions) {
+            self.escaped = true;
+            return self.overflow.find_pairs(positions, radii, pairs);
         }
         self.escaped = false;
         let max_radius = largest(radii);
@@ -491,36 +509,28 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
         pairs: &mut Vec<Pair>,
         scratch: &mut CellScratch,
     ) {
-        // (the grid's own arrays stay empty: the lent ones come back holding this search's
-        // buckets, which nothing reads after it)
-        let lend = |grid: &mut Self, scratch: &mut CellScratch| {
-            std::mem::swap(&mut grid.cell_of, &mut scratch.keys);
-            std::mem::swap(&mut grid.cell_start, &mut scratch.starts);
-            std::mem::swap(&mut grid.ids, &mut scratch.order);
-        };
-        lend(self, scratch);
+        self.lend(scratch);
         self.find_pairs(positions, radii, pairs);
-        lend(self, scratch);
+        self.lend(scratch);
     }
 
-    fn find_raised_pairs_in(
+    fn find_pairs_raised_in(
         &mut self,
         positions: &[V],
         radii: &[f64],
-        raised: &[f64],
+        raising: &Raising<'_>,
+        raised: &mut Vec<f64>,
         pairs: &mut Vec<Pair>,
         scratch: &mut CellScratch,
     ) {
-        // (the buckets of the search just made are in `scratch`; a periodic grid, or one that
-        // handed the search to the hash, searches again)
-        if self.periodic.is_some() || self.escaped {
-            return self.find_pairs_in(positions, raised, pairs, scratch);
+        // (a periodic grid, or one that hands the search to the hash, searches twice)
+        if self.periodic.is_some() || self.too_many_outside(positions) {
+            return search_raise_search(self, positions, radii, raising, raised, pairs, scratch);
         }
-        std::mem::swap(&mut self.cell_start, &mut scratch.starts);
-        std::mem::swap(&mut self.ids, &mut scratch.order);
-        self.add_raised_pairs(positions, radii, raised, pairs);
-        std::mem::swap(&mut self.cell_start, &mut scratch.starts);
-        std::mem::swap(&mut self.ids, &mut scratch.order);
+        self.escaped = false;
+        self.lend(scratch);
+        self.find_raised_pairs(positions, radii, raising, raised, pairs);
+        self.lend(scratch);
     }
 
     fn name(&self) -> &'static str {

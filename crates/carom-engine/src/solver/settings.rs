@@ -54,21 +54,8 @@ pub(crate) fn raise_to_partners(
     fall: f64,
     dt: f64,
 ) -> bool {
-    let mut grew = false;
-    let mut raise = |i: usize, partner: usize| {
-        if own(i) {
-            let raised = self::reach(radius[i], speed(partner) + fall, dt);
-            if raised > reach[i] {
-                reach[i] = raised;
-                grew = true;
-            }
-        }
-    };
-    for &(i, j) in pairs {
-        raise(i as usize, j as usize);
-        raise(j as usize, i as usize);
-    }
-    grew
+    let radius_at = |i: usize, partner_speed: f64| self::reach(radius[i], partner_speed + fall, dt);
+    crate::broadphase::raise_to_partners(reach, pairs, speed, radius_at, own)
 }
 
 /// True when contacts can rest (see [`SolverSettings::lecture_only`]): then a particle's reach

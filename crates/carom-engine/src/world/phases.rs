@@ -1,7 +1,7 @@
 //! One world's part in each phase of a step (see [`crate::step`]).
 
 use super::*;
-use crate::broadphase::keep_headroom;
+use crate::broadphase::{keep_headroom, Raising};
 use crate::diagnostics::StepStats;
 use crate::frontier::{self, Stamps};
 use crate::memory::Memory;
@@ -245,27 +245,25 @@ impl<V: Vector> World<V> {
                 .zip(p.velocity.iter().zip(p.radius.iter()))
                 .for_each(reach);
         }
-        self.broad_phase.find_pairs_in(
-            &self.store.position,
-            &self.reach,
-            &mut self.pairs,
-            &mut self.sorter.scratch,
-        );
+        let (position, radius, velocity) = (&p.position, &p.radius, &p.velocity);
+        let scratch = &mut self.sorter.scratch;
         if solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes) {
-            let p = &self.store;
-            let speed = |j: usize| p.velocity[j].length_squared().sqrt();
-            self.raised.clone_from(&self.reach);
-            let (raised, radius) = (&mut self.raised, &p.radius);
-            if solver::raise_to_partners(raised, radius, &self.pairs, speed, |_| true, fall, dt) {
-                self.broad_phase.find_raised_pairs_in(
-                    &p.position,
-                    &self.reach,
-                    &self.raised,
-                    &mut self.pairs,
-                    &mut self.sorter.scratch,
-                );
-                std::mem::swap(&mut self.reach, &mut self.raised);
-            }
+            let raising = Raising {
+                speed: &|j| velocity[j].length_squared().sqrt(),
+                radius_at: &|i, partner_speed| solver::reach(radius[i], partner_speed + fall, dt),
+            };
+            let (reach, raised) = (&self.reach, &mut self.raised);
+            (self.broad_phase).find_pairs_raised_in(
+                position,
+                reach,
+                &raising,
+                raised,
+                &mut self.pairs,
+                scratch,
+            );
+            std::mem::swap(&mut self.reach, &mut self.raised);
+        } else {
+            (self.broad_phase).find_pairs_in(position, &self.reach, &mut self.pairs, scratch);
         }
     }
 
