@@ -20,7 +20,8 @@
 mod raised;
 
 use crate::broadphase::{
-    collect_pairs, search_raise_search, BroadPhase, CellScratch, Pair, Raising, PARALLEL_MIN,
+    collect_pairs, push_if, search_raise_search, BroadPhase, CellScratch, Pair, Raising,
+    PARALLEL_MIN,
 };
 use crate::bucket::{counting_sort, counting_sort_parallel};
 use crate::domain::Aabb;
@@ -495,9 +496,8 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
         collect_pairs(positions.len(), &mut self.buffers, pairs, |i, out| {
             let (pi, ri) = (positions[i], radii[i]);
             for_each_near(&layout, cell_start, ids, pi, ri + max_radius, |j| {
-                if (j > i) & is_overlapping(pi, positions[j], ri, radii[j]) {
-                    out.push((i as u32, j as u32));
-                }
+                let found = (j > i) & is_overlapping(pi, positions[j], ri, radii[j]);
+                push_if(out, (i as u32, j as u32), found);
             });
         });
     }

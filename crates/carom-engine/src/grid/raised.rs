@@ -13,7 +13,7 @@
 //! order up to sign, for the same bits, so no pair is added twice.
 
 use super::{for_each_near, largest, Grid};
-use crate::broadphase::{keep_headroom, Pair, Raising, CHUNK, PARALLEL_SEARCH_MIN};
+use crate::broadphase::{keep_headroom, push_if, Pair, Raising, CHUNK, PARALLEL_SEARCH_MIN};
 use crate::response::is_overlapping;
 use crate::vector::Vector;
 use rayon::prelude::*;
@@ -54,13 +54,12 @@ impl<V: Vector> Grid<V> {
                 for_each_near(&layout, cell_start, ids, xi, ri + max_radius, |j| {
                     // (the pair's test from either side: `is_overlapping` is symmetric, bit
                     // for bit)
-                    if j != i && is_overlapping(xi, positions[j], ri, radii[j]) {
+                    let partner = (j != i) & is_overlapping(xi, positions[j], ri, radii[j]);
+                    if partner {
                         let s = speed(j);
                         fastest = Some(fastest.map_or(s, |f| f.max(s)));
-                        if j > i {
-                            out.push((i as u32, j as u32));
-                        }
                     }
+                    push_if(out, (i as u32, j as u32), partner & (j > i));
                 });
                 out[first..].sort_unstable();
                 *raised = match fastest {
@@ -106,15 +105,12 @@ impl<V: Vector> Grid<V> {
         let scan = |i: usize, out: &mut Vec<Pair>| {
             let (pi, ri) = (positions[i], raised[i]);
             for_each_near(&layout, cell_start, ids, pi, ri + max_raised, |j| {
-                if j == i || (j < i && grown(j)) {
-                    return;
-                }
+                // (a pair of two grown particles is the lower one's)
+                let theirs = (j == i) | ((j < i) & grown(j));
                 let pj = positions[j];
-                if is_overlapping(pi, pj, ri, raised[j])
-                    && !is_overlapping(pi, pj, radii[i], radii[j])
-                {
-                    out.push((i.min(j) as u32, i.max(j) as u32));
-                }
+                let added = is_overlapping(pi, pj, ri, raised[j])
+                    & !is_overlapping(pi, pj, radii[i], radii[j]);
+                push_if(out, (i.min(j) as u32, i.max(j) as u32), added & !theirs);
             });
         };
         let chunks = n.div_ceil(CHUNK);
