@@ -5,6 +5,7 @@ use super::{bounces::*, rows::*, rules::*, settings::*};
 use crate::response::contact_normal;
 use crate::schedule::{Change, Exchange};
 use crate::vector::Vector;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// True when centres `delta` apart are farther apart than `limit` by far more than rounding
 /// (a relative 1e-9), told from the squared distance: most pairs of a step are, and the square
@@ -114,6 +115,11 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
             plane.push_out_in_place(x, r);
         }
     };
+    // (the largest overlap, taken as the rows go: a pass of its own over the records took
+    // 1.8-2.0 ms a step at 10^6 falling discs. A maximum is the same in any order; a non-negative
+    // f64's bits order as it does, and the load first leaves the shared value to be read,
+    // not written, once the largest is near)
+    let deepest = AtomicU64::new(0);
     let finish = |_: &mut Row<V>, record: &mut RowRecord, xi: &mut V, xj: &mut V| {
         // (a sleeping particle, of infinite mass, stays where it sleeps)
         if !planes.is_empty() {
@@ -134,6 +140,9 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
         if record.overlap.to_bits() != overlap.to_bits() {
             record.overlap = overlap;
         }
+        if overlap > f64::from_bits(deepest.load(Ordering::Relaxed)) {
+            deepest.fetch_max(overlap.to_bits(), Ordering::Relaxed);
+        }
         Change::Nothing
     };
     blocks.every_pair(exchange, position, c.pairs, c.rows.reborrow(), &finish);
@@ -141,6 +150,6 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
         keep_energy(velocity, c, gravity);
     }
     exchange.settle_rows(blocks, c.rows.reborrow());
-    let local = c.rows.largest_overlap(blocks.parallel());
-    exchange.largest(local)
+    // (every process runs every leftover: the largest over the processes is over every row)
+    exchange.largest(f64::from_bits(deepest.into_inner()))
 }

@@ -299,18 +299,6 @@ impl<V: Vector> RowsMut<'_, V> {
             keep((self.row, self.record));
         }
     }
-
-    /// The largest [`RowRecord::overlap`] (0 without rows), on the thread pool when
-    /// `parallel` (a maximum does not depend on the order it is taken in). (On 10^6 falling
-    /// discs: 1.8-2.0 ms a step on 2 threads, 2.2-3.0 ms serial.)
-    pub fn largest_overlap(&self, parallel: bool) -> f64 {
-        let overlap = |record: &RowRecord| record.overlap;
-        if parallel {
-            self.record.par_iter().map(overlap).reduce(|| 0.0, f64::max)
-        } else {
-            self.record.iter().map(overlap).fold(0.0, f64::max)
-        }
-    }
 }
 
 impl<'a, V: Send> crate::schedule::Split for RowsMut<'a, V> {
