@@ -189,7 +189,7 @@ impl<V: Vector> Phases for World<V> {
             self.all_asleep = !self.store.is_empty() && self.sleepers.count == self.store.len();
         }
         // (all asleep: everything is at rest, no collision, no virial, no thermal motion)
-        let rows = solver::tally(&self.rows);
+        let rows = solver::tally(&self.rows, self.parallel(), self.tally.observing);
         let (collisions, virial) = if self.all_asleep {
             (0, 0.0)
         } else {

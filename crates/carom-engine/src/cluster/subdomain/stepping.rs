@@ -182,7 +182,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
                 s.config.dt,
             );
         }
-        let rows = crate::solver::tally(&s.rows);
+        let rows = crate::solver::tally(&s.rows, s.blocks.parallel(), false);
         let on_planes = s.plane_rows.iter().filter(|r| r.touching).count() as u64;
         let counts = self.link.sum(&[
             rows.touching,
