@@ -198,11 +198,17 @@ pub(crate) fn collect_pairs<F>(
     } else {
         buffers[..chunks].iter_mut().enumerate().for_each(work);
     }
-    pairs.clear();
-    for b in &buffers[..chunks] {
-        pairs.extend_from_slice(b);
+    gather(&buffers[..chunks], pairs);
+}
+
+/// Replaces `into` with the chunk buffers `chunks`, one after another (the per-chunk results
+/// of a parallel pass, in chunk order: the same whatever the threads).
+pub(crate) fn gather<T: Copy>(chunks: &[Vec<T>], into: &mut Vec<T>) {
+    into.clear();
+    for chunk in chunks {
+        into.extend_from_slice(chunk);
     }
-    keep_headroom(pairs);
+    keep_headroom(into);
 }
 
 /// Pushes `pair` onto `out` when `keep`, without branching on `keep`: a search's test holds

@@ -13,7 +13,9 @@
 //! order up to sign, for the same bits, so no pair is added twice.
 
 use super::{for_each_near, largest, Grid};
-use crate::broadphase::{keep_headroom, push_if, Pair, Raising, CHUNK, PARALLEL_SEARCH_MIN};
+use crate::broadphase::{
+    gather, keep_headroom, push_if, Pair, Raising, CHUNK, PARALLEL_SEARCH_MIN,
+};
 use crate::response::is_overlapping;
 use crate::vector::Vector;
 use rayon::prelude::*;
@@ -80,11 +82,7 @@ impl<V: Vector> Grid<V> {
                 .enumerate()
                 .for_each(search);
         }
-        pairs.clear();
-        for b in &self.buffers[..chunks] {
-            pairs.extend_from_slice(b);
-        }
-        keep_headroom(pairs);
+        gather(&self.buffers[..chunks], pairs);
         self.add_raised_pairs(positions, radii, raised, pairs);
     }
 
@@ -133,11 +131,7 @@ impl<V: Vector> Grid<V> {
             self.buffers[..chunks].iter_mut().enumerate().for_each(work);
         }
         let extra = &mut self.raised_extra;
-        extra.clear();
-        for b in &self.buffers[..chunks] {
-            extra.extend_from_slice(b);
-        }
-        keep_headroom(extra);
+        gather(&self.buffers[..chunks], extra);
         if extra.is_empty() {
             return;
         }

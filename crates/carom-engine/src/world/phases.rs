@@ -1,7 +1,7 @@
 //! One world's part in each phase of a step (see [`crate::step`]).
 
 use super::*;
-use crate::broadphase::{keep_headroom, Raising};
+use crate::broadphase::{gather, keep_headroom, Raising};
 use crate::diagnostics::StepStats;
 use crate::frontier::{self, Stamps};
 use crate::memory::Memory;
@@ -307,10 +307,7 @@ impl<V: Vector> World<V> {
                 .enumerate()
                 .for_each(work);
         }
-        for b in &self.plane_buffers[..chunks] {
-            self.plane_contacts.extend_from_slice(b);
-        }
-        keep_headroom(&mut self.plane_contacts);
+        gather(&self.plane_buffers[..chunks], &mut self.plane_contacts);
     }
 
     /// Marks this step's sleepers (see [`crate::sleep`]), stops them, and drops the contacts
