@@ -523,11 +523,16 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
         pairs: &mut Vec<Pair>,
         scratch: &mut CellScratch,
     ) {
-        // (a periodic grid, or one that hands the search to the hash, searches twice)
-        if self.periodic.is_some() || self.too_many_outside(positions) {
+        // (a periodic grid searches, raises and searches again; so does the hash for a grid
+        // with many particles outside its domain, as in `find_pairs`)
+        if self.periodic.is_some() {
             return search_raise_search(self, positions, radii, raising, raised, pairs, scratch);
         }
-        self.escaped = false;
+        self.escaped = self.too_many_outside(positions);
+        if self.escaped {
+            let hash = &mut self.overflow;
+            return search_raise_search(hash, positions, radii, raising, raised, pairs, scratch);
+        }
         self.lend(scratch);
         self.find_raised_pairs(positions, radii, raising, raised, pairs);
         self.lend(scratch);

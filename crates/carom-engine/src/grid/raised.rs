@@ -201,9 +201,7 @@ mod tests {
         let mut first = Vec::new();
         BruteForce::new().find_pairs(&pos, &radii, &mut first);
         assert!(expected.len() > first.len(), "the raise adds pairs");
-        let domain = Aabb::new(DVec2::splat(-40.0), DVec2::splat(40.0)).unwrap();
-        for cells in [None, Some([5, 7]), Some([60, 60]), Some([200, 200])] {
-            let mut grid = Grid::new(Some(domain), cells.as_ref().map(|c| &c[..])).unwrap();
+        let mut search = |grid: &mut Grid<DVec2>| {
             let (mut pairs, mut raised) = (Vec::new(), Vec::new());
             grid.find_pairs_raised_in(
                 &pos,
@@ -213,8 +211,18 @@ mod tests {
                 &mut pairs,
                 &mut scratch,
             );
-            assert_eq!(pairs, expected, "cells {cells:?}");
-            assert_eq!(raised, expected_raised, "cells {cells:?}");
+            (pairs, raised)
+        };
+        let expected = (expected, expected_raised);
+        // (a domain that leaves most particles outside: the grid hands them to its hash)
+        let outside = Aabb::new(DVec2::splat(-10.0), DVec2::splat(10.0)).unwrap();
+        let mut escaped = Grid::new(Some(outside), None).unwrap();
+        assert_eq!(search(&mut escaped), expected, "most particles outside");
+        assert!(BroadPhase::<DVec2>::name(&escaped).contains("hash"));
+        let domain = Aabb::new(DVec2::splat(-40.0), DVec2::splat(40.0)).unwrap();
+        for cells in [None, Some([5, 7]), Some([60, 60]), Some([200, 200])] {
+            let mut grid = Grid::new(Some(domain), cells.as_ref().map(|c| &c[..])).unwrap();
+            assert_eq!(search(&mut grid), expected, "cells {cells:?}");
         }
     }
 

@@ -92,7 +92,9 @@ pub struct World<V: Vector> {
     /// Each slot's reach this step: radius plus `min(|v| dt, radius)` (see
     /// [`crate::solver::raise_to_partners`] for when that speed is a partner's).
     reach: Vec<f64>,
-    /// The reaches raised to the partners' speeds, while the search adds their pairs.
+    /// Where the search writes the reaches raised to the partners' speeds (see
+    /// [`BroadPhase::find_pairs_raised_in`]); swapped with `reach` right after, so between
+    /// searches it holds the step before's reaches, which nothing reads.
     raised: Vec<f64>,
     /// This step's contact candidates (pairs within reach), as storage slots, sorted.
     pairs: Vec<Pair>,
