@@ -39,8 +39,10 @@ use crate::broadphase::Pair;
 use crate::frontier::{Frontier, Stamps};
 use crate::solver::{Row, RowRecord, RowsMut};
 use crate::vector::Vector;
+pub(crate) use both::MoveRules;
 use spans::{split_run, PairWork, PlaneWork};
 
+mod both;
 mod spans;
 
 /// A particle touching a plane: `(slot, plane index)`.
@@ -127,6 +129,16 @@ impl<T: Send> Split for &mut [T] {
     #[inline]
     fn split_at_mut(self, at: usize) -> (Self, Self) {
         <[T]>::split_at_mut(self, at)
+    }
+}
+
+/// Two arrays of particle data split at the same slot (see [`Blocks::move_and_place`]).
+impl<A: Send, B: Send> Split for (&mut [A], &mut [B]) {
+    #[inline]
+    fn split_at_mut(self, at: usize) -> (Self, Self) {
+        let (a, a_rest) = self.0.split_at_mut(at);
+        let (b, b_rest) = self.1.split_at_mut(at);
+        ((a, b), (a_rest, b_rest))
     }
 }
 
@@ -448,6 +460,11 @@ pub(crate) trait Exchange<V: Vector> {
     fn total(&mut self, local: u64) -> u64;
     /// The largest of `local` over every process.
     fn largest(&mut self, local: f64) -> f64;
+    /// True when this process holds every slot (nothing is lent), so that a pass may carry
+    /// positions and velocities together (see [`Blocks::move_and_place`]).
+    fn alone(&self) -> bool {
+        false
+    }
 }
 
 /// One process holding every slot: nothing to exchange.
@@ -504,5 +521,8 @@ impl<V: Vector> Exchange<V> for Alone {
     #[inline]
     fn largest(&mut self, local: f64) -> f64 {
         local
+    }
+    fn alone(&self) -> bool {
+        true
     }
 }

@@ -188,20 +188,20 @@ fn scan<V: Vector>(
 
 /// One span of a run as [`split_run`] hands it out: its number, its first slot, its
 /// slots and their stamps, the index of its first row, and its rows.
-pub(crate) struct Part<'a, T, R> {
-    span: usize,
-    slot_base: usize,
-    data: &'a mut [T],
-    stamps: Stamps<'a>,
-    row_base: usize,
-    rows: R,
+pub(crate) struct Part<'a, D, R> {
+    pub(super) span: usize,
+    pub(super) slot_base: usize,
+    pub(super) data: D,
+    pub(super) stamps: Stamps<'a>,
+    pub(super) row_base: usize,
+    pub(super) rows: R,
 }
 
 /// What a run does with its spans, two at a time (see [`split_run`]).
-pub(crate) trait SpanWork<T, R>: Sync {
+pub(crate) trait SpanWork<D, R>: Sync {
     /// Runs span `a` and, when there is one, span `b` (disjoint from `a`); returns how many
     /// applications changed something.
-    fn run(&self, a: Part<T, R>, b: Option<Part<T, R>>) -> u64;
+    fn run(&self, a: Part<D, R>, b: Option<Part<D, R>>) -> u64;
 }
 
 /// The pair rule over the spans of one parity (see [`Blocks::run_parity`]).
@@ -216,7 +216,7 @@ pub(crate) struct PairWork<'w, F> {
 }
 
 impl<F> PairWork<'_, F> {
-    fn span<'p, V>(&self, part: Part<'p, V, RowsMut<'p, V>>) -> Span<'p, V> {
+    fn span<'p, V>(&self, part: Part<'p, &'p mut [V], RowsMut<'p, V>>) -> Span<'p, V> {
         Span {
             block: self.parity + 2 * part.span,
             slot_base: part.slot_base,
@@ -228,8 +228,12 @@ impl<F> PairWork<'_, F> {
     }
 }
 
-impl<'w, V: Vector, F: PairRule<V>> SpanWork<V, RowsMut<'_, V>> for PairWork<'w, F> {
-    fn run(&self, a: Part<V, RowsMut<V>>, b: Option<Part<V, RowsMut<V>>>) -> u64 {
+impl<'a, V: Vector, F: PairRule<V>> SpanWork<&'a mut [V], RowsMut<'a, V>> for PairWork<'_, F> {
+    fn run(
+        &self,
+        a: Part<&'a mut [V], RowsMut<'a, V>>,
+        b: Option<Part<&'a mut [V], RowsMut<'a, V>>>,
+    ) -> u64 {
         let b = b.map(|b| self.span(b));
         self.blocks.run_blocks(
             self.span(a),
@@ -249,9 +253,15 @@ pub(crate) struct PlaneWork<'w, F> {
     pub rule: &'w F,
 }
 
-impl<'w, V: Send, R: Send, F: PlaneRule<V, R>> SpanWork<V, &mut [R]> for PlaneWork<'w, F> {
-    fn run(&self, a: Part<V, &mut [R]>, b: Option<Part<V, &mut [R]>>) -> u64 {
-        let one = |part: Part<V, &mut [R]>| {
+impl<'a, V: Send, R: Send, F: PlaneRule<V, R>> SpanWork<&'a mut [V], &'a mut [R]>
+    for PlaneWork<'_, F>
+{
+    fn run(
+        &self,
+        a: Part<&'a mut [V], &'a mut [R]>,
+        b: Option<Part<&'a mut [V], &'a mut [R]>>,
+    ) -> u64 {
+        let one = |part: Part<&'a mut [V], &'a mut [R]>| {
             let Part {
                 slot_base,
                 data: slots,
@@ -287,15 +297,15 @@ const PAIR_SPANS_FROM: usize = 8;
 /// `slot(spans.start)` and `row(spans.start)`. On the thread pool when `parallel`, by halves;
 /// serially otherwise. Returns the sum of what `work` returns.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn split_run<T: Send, R: Split>(
+pub(crate) fn split_run<D: Split, R: Split>(
     parallel: bool,
     spans: Range<usize>,
     slot: &(impl Fn(usize) -> usize + Sync),
     row: &(impl Fn(usize) -> usize + Sync),
-    data: &mut [T],
+    data: D,
     stamps: Stamps,
     rows: R,
-    work: &impl SpanWork<T, R>,
+    work: &impl SpanWork<D, R>,
 ) -> u64 {
     let run = Run {
         slot,
@@ -325,15 +335,15 @@ where
     W: Fn(usize) -> usize + Sync,
 {
     /// The spans `spans` (see [`split_run`]), by halves on the thread pool down to a task.
-    fn split<T: Send, R: Split>(
+    fn split<D: Split, R: Split>(
         &self,
         spans: Range<usize>,
-        data: &mut [T],
+        data: D,
         stamps: Stamps,
         rows: R,
     ) -> u64
     where
-        K: SpanWork<T, R>,
+        K: SpanWork<D, R>,
     {
         if !self.parallel || spans.len() <= 1 + self.paired as usize {
             return self.in_order(spans, data, stamps, rows);
@@ -360,15 +370,15 @@ where
 
     /// The spans `spans` on this thread, in order, two to each call of `work` (one when not
     /// paired: a task's run is then a single span).
-    fn in_order<T: Send, R: Split>(
+    fn in_order<D: Split, R: Split>(
         &self,
         spans: Range<usize>,
-        data: &mut [T],
+        data: D,
         stamps: Stamps,
         rows: R,
     ) -> u64
     where
-        K: SpanWork<T, R>,
+        K: SpanWork<D, R>,
     {
         let (mut data, mut stamps, mut rows) = (data, stamps, rows);
         let mut take = |c: usize| {
@@ -411,7 +421,7 @@ struct Span<'a, V> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::schedule::Alone;
     use crate::solver::{Row, RowRecord};
@@ -428,7 +438,7 @@ mod tests {
 
     /// `n` slots in blocks of `size` with contacts reaching up to `reach` slots ahead (some
     /// past the next block: leftovers), sorted.
-    fn contacts(n: usize, reach: usize) -> Vec<Pair> {
+    pub(in crate::schedule) fn contacts(n: usize, reach: usize) -> Vec<Pair> {
         let mut state = 7u64;
         let mut next = |m: usize| {
             state = state
