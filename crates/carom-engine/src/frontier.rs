@@ -133,10 +133,19 @@ impl<'a> Stamps<'a> {
         (Stamps::new(a, ga), Stamps::new(b, gb))
     }
 
-    /// Appends to `out` the slots below `end` stamped at least `since`, ascending.
-    fn collect_since(&self, since: u32, end: usize, out: &mut Vec<u32>) {
+    /// Appends to `out` the slots below `end` stamped at least `since`, ascending, a group of
+    /// [`GROUP`] slots at a time. After each group, `more` sees the slots the group added;
+    /// when it says false, stops there and returns false.
+    fn collect_since(
+        &self,
+        since: u32,
+        end: usize,
+        out: &mut Vec<u32>,
+        mut more: impl FnMut(&[u32]) -> bool,
+    ) -> bool {
         let end = end.min(self.slot.len());
         for (g, group) in self.group[..end.div_ceil(GROUP)].iter().enumerate() {
+            let added = out.len();
             let first = g * GROUP;
             let mut bits = match group.since(since) {
                 Some(bits) => bits,
@@ -153,7 +162,11 @@ impl<'a> Stamps<'a> {
                 out.push((first + bits.trailing_zeros() as usize) as u32);
                 bits &= bits - 1;
             }
+            if !more(&out[added..]) {
+                return false;
+            }
         }
+        true
     }
 }
 
@@ -234,12 +247,19 @@ impl Scratch {
     ) -> bool {
         self.pending.clear();
         self.pending.resize(contacts.len().div_ceil(64), 0);
-        // (first every seed, then their lists' lengths, then the lists: the lookups of one
-        // stage do not wait on each other, which scattered seeds made the walk's main cost)
+        // (first a group's seeds, then their lists' lengths; then the lists: the lookups of
+        // one stage do not wait on each other, which scattered seeds made the walk's main
+        // cost. The count stops at the first group past the budget: in the dense 10^6 pile
+        // most slots are seeds in most sweeps, and counting them all took 4.6 % of the step)
         self.seeds.clear();
-        stamps.collect_since(since, index.reached, &mut self.seeds);
-        let seeded: usize = self.seeds.iter().map(|&l| index.of(l as usize).len()).sum();
-        if seeded > *budget {
+        let mut seeded = 0;
+        let lengths =
+            |seeds: &[u32]| -> usize { seeds.iter().map(|&l| index.of(l as usize).len()).sum() };
+        let within = stamps.collect_since(since, index.reached, &mut self.seeds, |added| {
+            seeded += lengths(added);
+            seeded <= *budget
+        });
+        if !within {
             return false;
         }
         *budget -= seeded;
@@ -421,7 +441,7 @@ mod tests {
         }
         let since = |stamps: &Stamps, since, end| {
             let mut out = Vec::new();
-            stamps.collect_since(since, end, &mut out);
+            stamps.collect_since(since, end, &mut out, |_| true);
             out
         };
         assert_eq!(since(&stamps, 5, 200), vec![3, 70, 199]);
@@ -451,7 +471,7 @@ mod tests {
                 }
                 for since in 1..=now {
                     let mut found = Vec::new();
-                    stamps.collect_since(since, end, &mut found);
+                    stamps.collect_since(since, end, &mut found, |_| true);
                     let read: Vec<u32> = (0..end.min(300) as u32)
                         .filter(|&l| stamps.get(l as usize) >= since)
                         .collect();
