@@ -311,7 +311,8 @@ mod tests {
 
     #[test]
     fn one_pass_gives_the_bits_of_the_separate_passes() {
-        let n = 5000;
+        // (20 blocks: a parity's ten spans go two to a task on the thread pool, as at 10^6)
+        let n = 20 * 1024;
         let pairs = contacts(n, 2500);
         let plane_contacts: Vec<PlaneContact> = (0..n as u32).step_by(7).map(|i| (i, 0)).collect();
         let separate = |blocks: &Blocks,
