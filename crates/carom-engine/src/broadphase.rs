@@ -77,8 +77,9 @@ pub struct CellScratch {
 /// [`BroadPhase::find_pairs_raised_in`]).
 #[derive(Clone, Copy)]
 pub struct Raising<'a> {
-    /// Particle `i`'s speed (length / time, >= 0).
-    pub speed: &'a (dyn Fn(usize) -> f64 + Sync),
+    /// Each particle's speed (length / time, >= 0). (An array, not a function: the search
+    /// reads a partner's speed for every partner it finds.)
+    pub speed: &'a [f64],
     /// Particle `i`'s radius were it moving at the given speed; nondecreasing in the speed.
     pub radius_at: &'a (dyn Fn(usize, f64) -> f64 + Sync),
 }
@@ -103,7 +104,8 @@ pub(crate) fn search_raise_search<V: Vector, B: BroadPhase<V> + ?Sized>(
     broad_phase.find_pairs_in(positions, radii, pairs, scratch);
     raised.clear();
     raised.extend_from_slice(radii);
-    if raise_to_partners(raised, pairs, raising.speed, raising.radius_at, |_| true) {
+    let speed = |j: usize| raising.speed[j];
+    if raise_to_partners(raised, pairs, speed, raising.radius_at, |_| true) {
         broad_phase.find_pairs_in(positions, raised, pairs, scratch);
     }
 }

@@ -58,7 +58,7 @@ impl<V: Vector> Grid<V> {
                     // for bit)
                     let partner = (j != i) & is_overlapping(xi, positions[j], ri, radii[j]);
                     if partner {
-                        let s = speed(j);
+                        let s = speed[j];
                         fastest = Some(fastest.map_or(s, |f| f.max(s)));
                     }
                     push_if(out, (i as u32, j as u32), partner & (j > i));
@@ -182,10 +182,9 @@ mod tests {
             .collect();
         let radii: Vec<f64> = (0..n).map(|i| if i % 9 == 0 { 2.0 } else { 0.6 }).collect();
         let speeds: Vec<f64> = (0..n).map(|_| next() * next() * 30.0).collect();
-        let speed = |j: usize| speeds[j];
         let radius_at = |i: usize, s: f64| radii[i] + (s * 0.02).min(radii[i]);
         let raising = Raising {
-            speed: &speed,
+            speed: &speeds,
             radius_at: &radius_at,
         };
         let (mut expected, mut expected_raised) = (Vec::new(), Vec::new());

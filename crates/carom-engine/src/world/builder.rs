@@ -272,6 +272,7 @@ impl<V: Vector> WorldBuilder<V> {
             broad_phase,
             reach: Vec::new(),
             raised: Vec::new(),
+            speed: Vec::new(),
             pairs: Vec::new(),
             rows: Rows::with_capacity(n),
             plane_contacts: Vec::new(),

@@ -96,6 +96,9 @@ pub struct World<V: Vector> {
     /// [`BroadPhase::find_pairs_raised_in`]); swapped with `reach` right after, so between
     /// searches it holds the step before's reaches, which nothing reads.
     raised: Vec<f64>,
+    /// Each slot's speed this step, `|v|`, when the search raises reaches (see
+    /// [`crate::Raising::speed`]); empty otherwise.
+    speed: Vec<f64>,
     /// This step's contact candidates (pairs within reach), as storage slots, sorted.
     pairs: Vec<Pair>,
     /// The solver's data for each pair.

@@ -229,27 +229,42 @@ impl<V: Vector> World<V> {
     fn find_pairs(&mut self, parallel: bool) {
         let dt = self.config.dt;
         let fall = self.config.gravity.length_squared().sqrt() * dt;
-        let reach = |(out, (v, &r)): (&mut f64, (&V, &f64))| {
-            *out = solver::reach(r, v.length_squared().sqrt() + fall, dt);
-        };
+        let raises = solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes);
         let p = &self.store;
         self.reach.resize(p.len(), 0.0);
-        if parallel {
-            self.reach
-                .par_iter_mut()
-                .zip(p.velocity.par_iter().zip(p.radius.par_iter()))
-                .for_each(reach);
+        self.speed.resize(if raises { p.len() } else { 0 }, 0.0);
+        let one = |v: &V, r: f64| {
+            let speed = v.length_squared().sqrt();
+            (solver::reach(r, speed + fall, dt), speed)
+        };
+        let particles = || p.velocity.par_iter().zip(p.radius.par_iter());
+        // (the speeds, when the search raises reaches, in the same pass: a square root per
+        // particle instead of one per partner the search finds, through a closure)
+        if raises {
+            let fill = |((out, speed), (v, &r)): ((&mut f64, &mut f64), (&V, &f64))| {
+                (*out, *speed) = one(v, r);
+            };
+            if parallel {
+                let outs = self.reach.par_iter_mut().zip(self.speed.par_iter_mut());
+                outs.zip(particles()).for_each(fill);
+            } else {
+                let outs = self.reach.iter_mut().zip(self.speed.iter_mut());
+                outs.zip(p.velocity.iter().zip(&p.radius)).for_each(fill);
+            }
         } else {
-            self.reach
-                .iter_mut()
-                .zip(p.velocity.iter().zip(p.radius.iter()))
-                .for_each(reach);
+            let fill = |(out, (v, &r)): (&mut f64, (&V, &f64))| *out = one(v, r).0;
+            if parallel {
+                self.reach.par_iter_mut().zip(particles()).for_each(fill);
+            } else {
+                let outs = self.reach.iter_mut();
+                outs.zip(p.velocity.iter().zip(&p.radius)).for_each(fill);
+            }
         }
-        let (position, radius, velocity) = (&p.position, &p.radius, &p.velocity);
+        let (position, radius) = (&p.position, &p.radius);
         let scratch = &mut self.sorter.scratch;
-        if solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes) {
+        if raises {
             let raising = Raising {
-                speed: &|j| velocity[j].length_squared().sqrt(),
+                speed: &self.speed,
                 radius_at: &|i, partner_speed| solver::reach(radius[i], partner_speed + fall, dt),
             };
             let (reach, raised) = (&self.reach, &mut self.raised);
