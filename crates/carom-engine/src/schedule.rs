@@ -332,17 +332,11 @@ impl Blocks {
         reverse: bool,
         rule: &impl PairRule<V>,
     ) -> u64 {
-        let size = self.size;
-        let count = self.count();
         let parity = (global_parity + self.first_block) % 2;
-        if parity >= count || parity * size >= data.len() {
+        let Some(run) = ParitySpans::of(self, parity, data.len()) else {
             return 0;
-        }
-        let spans = (count - parity).div_ceil(2);
-        let n = data.len();
-        // Span c: blocks parity + 2c and the next, as slots and as rows.
-        let slot = |c: usize| ((parity + 2 * c) * size).min(n);
-        let row = |c: usize| self.pair_start[(parity + 2 * c).min(count)];
+        };
+        let (spans, slot, row) = (run.spans, |c| run.slot(c), |c| run.pair_row(c));
         let work = PairWork {
             blocks: self,
             parity,
@@ -415,6 +409,51 @@ impl Blocks {
             plane_rows,
             rule,
         )
+    }
+}
+
+/// The spans of one parity's blocks over `n` slots (see [`Blocks::sweep_pairs`]): span `c` is
+/// blocks `parity + 2 c` and the next, as slots and as rows.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ParitySpans<'b> {
+    blocks: &'b Blocks,
+    /// The parity (of this process's blocks).
+    pub parity: usize,
+    /// How many spans.
+    pub spans: usize,
+    n: usize,
+}
+
+impl<'b> ParitySpans<'b> {
+    /// `None` when `parity` has no block with a slot.
+    pub fn of(blocks: &'b Blocks, parity: usize, n: usize) -> Option<Self> {
+        let count = blocks.count();
+        (parity < count && parity * blocks.size < n).then(|| Self {
+            blocks,
+            parity,
+            spans: (count - parity).div_ceil(2),
+            n,
+        })
+    }
+
+    /// The block starting span `c`, or the count past the last.
+    fn block(&self, c: usize) -> usize {
+        (self.parity + 2 * c).min(self.blocks.count())
+    }
+
+    /// Span `c`'s first slot (`n` past the last span).
+    pub fn slot(&self, c: usize) -> usize {
+        ((self.parity + 2 * c) * self.blocks.size).min(self.n)
+    }
+
+    /// Span `c`'s first pair row.
+    pub fn pair_row(&self, c: usize) -> usize {
+        self.blocks.pair_start[self.block(c)]
+    }
+
+    /// Span `c`'s first plane row.
+    pub fn plane_row(&self, c: usize) -> usize {
+        self.blocks.plane_start[self.block(c)]
     }
 }
 

@@ -12,7 +12,7 @@
 //! pairs' in their sweep order), so the bits are the same.
 
 use super::spans::{split_run, Part, SpanWork};
-use super::{pair_mut, Blocks, PlaneContact, Split};
+use super::{pair_mut, Blocks, ParitySpans, PlaneContact, Split};
 use crate::broadphase::Pair;
 use crate::frontier::Stamps;
 use crate::solver::{Row, RowRecord, RowsMut};
@@ -68,27 +68,23 @@ impl Blocks {
         rules: &MoveRules<impl ParticleRule<V>, impl PlaneBothRule<V, R>, impl PairBothRule<V>>,
     ) {
         debug_assert_eq!(position.len(), velocity.len());
-        let (size, count, n) = (self.size, self.count(), position.len());
         for parity in 0..2 {
-            if parity >= count || parity * size >= n {
+            let Some(run) = ParitySpans::of(self, parity, position.len()) else {
                 continue;
-            }
-            let spans = (count - parity).div_ceil(2);
-            let slot = |c: usize| ((parity + 2 * c) * size).min(n);
-            let s0 = slot(0);
+            };
+            let (s0, spans) = (run.slot(0), run.spans);
             let span_rows = SpanRows {
-                blocks: Some(self),
-                parity,
+                run: Some(run),
                 first: 0,
                 pairs: rows
                     .reborrow()
-                    .split_at_mut(self.span_row(parity, spans))
+                    .split_at_mut(run.pair_row(spans))
                     .0
-                    .split_at_mut(self.span_row(parity, 0))
+                    .split_at_mut(run.pair_row(0))
                     .1,
                 // (the even parity's spans hold every block: they take the plane contacts)
                 planes: match parity {
-                    0 => &mut plane_rows[..self.plane_start[count]],
+                    0 => &mut plane_rows[..run.plane_row(spans)],
                     _ => &mut [],
                 },
             };
@@ -103,7 +99,7 @@ impl Blocks {
             split_run(
                 self.parallel,
                 0..spans,
-                &slot,
+                &|c| run.slot(c),
                 &|c| c,
                 (&mut position[s0..], &mut velocity[s0..]),
                 Stamps::none(),
@@ -120,18 +116,12 @@ impl Blocks {
             (rules.pair)(&mut rows.row[k], &mut rows.record[k], x, v);
         }
     }
-
-    /// The first pair row of span `c` of `parity` (blocks `parity + 2 c` and the next).
-    fn span_row(&self, parity: usize, c: usize) -> usize {
-        self.pair_start[(parity + 2 * c).min(self.count())]
-    }
 }
 
 /// The pair rows and (in the even parity) plane rows of a run of spans of one parity, from
 /// span `first` on; split by span number, each kind of row at its own index.
 struct SpanRows<'a, V, R> {
-    blocks: Option<&'a Blocks>,
-    parity: usize,
+    run: Option<ParitySpans<'a>>,
     first: usize,
     pairs: RowsMut<'a, V>,
     planes: &'a mut [R],
@@ -140,8 +130,7 @@ struct SpanRows<'a, V, R> {
 impl<V, R> Default for SpanRows<'_, V, R> {
     fn default() -> Self {
         Self {
-            blocks: None,
-            parity: 0,
+            run: None,
             first: 0,
             pairs: RowsMut::default(),
             planes: &mut [],
@@ -152,24 +141,19 @@ impl<V, R> Default for SpanRows<'_, V, R> {
 impl<V: Send, R: Send> Split for SpanRows<'_, V, R> {
     /// The spans before `first + at` and the rest.
     fn split_at_mut(self, at: usize) -> (Self, Self) {
-        let Some(blocks) = self.blocks else {
+        let Some(run) = self.run else {
             return (Self::default(), Self::default());
         };
-        let (parity, first, mid) = (self.parity, self.first, self.first + at);
-        let pair_cut = blocks.span_row(parity, mid) - blocks.span_row(parity, first);
-        let plane_cut = match parity {
-            0 => {
-                let count = blocks.count();
-                let plane = |c: usize| blocks.plane_start[(2 * c).min(count)];
-                plane(mid) - plane(first)
-            }
+        let (first, mid) = (self.first, self.first + at);
+        let pair_cut = run.pair_row(mid) - run.pair_row(first);
+        let plane_cut = match run.parity {
+            0 => run.plane_row(mid) - run.plane_row(first),
             _ => 0,
         };
         let (pairs_a, pairs_b) = self.pairs.split_at_mut(pair_cut);
         let (planes_a, planes_b) = self.planes.split_at_mut(plane_cut);
         let part = |first, pairs, planes| Self {
-            blocks: Some(blocks),
-            parity,
+            run: Some(run),
             first,
             pairs,
             planes,
