@@ -105,11 +105,28 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
             break;
         }
     }
-    // Planes last, for every particle the pair sweeps may have moved (the others moved only
-    // out of their own planes above), so a walled box holds its particles; then measure.
-    // (this pass reads every row's record and both its particles: it writes only what
-    // changes, so the records and positions it leaves as they were need not go back to memory;
-    // like the sweeps above, it never reads the velocity part of a row)
+    let deepest = contain_and_measure(exchange, position, c);
+    if settings.planes_in_move(planes, gravity) {
+        keep_energy(velocity, c, gravity);
+    }
+    exchange.settle_rows(blocks, c.rows.reborrow());
+    // (every process runs every leftover: the largest over the processes is over every row)
+    exchange.largest(deepest)
+}
+
+/// Planes last, for every particle the pair sweeps may have moved (the others moved only out
+/// of their own planes in the sweeps), so a walled box holds its particles; then each row's
+/// overlap, measured. Returns the largest, as a fraction of the smaller radius.
+///
+/// (This pass reads every row's record and both its particles: it writes only what changes,
+/// so the records and positions it leaves as they were need not go back to memory; like the
+/// sweeps, it never reads the velocity part of a row.)
+fn contain_and_measure<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    position: &mut [V],
+    c: &mut Contacts<V>,
+) -> f64 {
+    let (planes, period) = (c.planes, c.period);
     let out_of_all_planes = |x: &mut V, r: f64| {
         for plane in planes {
             plane.push_out_in_place(x, r);
@@ -145,11 +162,6 @@ pub(crate) fn separate<V: Vector, E: Exchange<V>>(
         }
         Change::Nothing
     };
-    blocks.every_pair(exchange, position, c.pairs, c.rows.reborrow(), &finish);
-    if settings.planes_in_move(planes, gravity) {
-        keep_energy(velocity, c, gravity);
-    }
-    exchange.settle_rows(blocks, c.rows.reborrow());
-    // (every process runs every leftover: the largest over the processes is over every row)
-    exchange.largest(f64::from_bits(deepest.into_inner()))
+    (c.blocks).every_pair(exchange, position, c.pairs, c.rows.reborrow(), &finish);
+    f64::from_bits(deepest.into_inner())
 }

@@ -47,109 +47,54 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
         own,
         asleep,
     } = m;
-    let elastic_planes = c.planes.iter().all(|p| p.restitution() >= 1.0);
-    let lecture_only = settings.lecture_only(elastic_planes);
-    let substeps = if lecture_only {
-        1
-    } else {
-        settings.substeps.max(1)
-    };
-    let planes_in_move = settings.planes_in_move(c.planes, gravity);
-    let h = dt / substeps as f64;
-    let impacts = classify(
-        exchange,
-        settings,
-        velocity,
-        c,
-        substeps as f64,
-        gravity,
-        dt,
-    );
-    // (every process's count: each decides the same thing from it)
-    let impacts = exchange.total(impacts);
-    let parallel = c.blocks.parallel();
+    let plan = StepPlan::new(exchange, settings, gravity, dt, velocity, c, own);
     let mut solve = VelocitySolve::default();
-    // (with substeps, the last substep's re-placing marks the impulses kept: see `place`)
-    let kept_by_place = substeps > 1;
-    let warm = !settings.lecture_pairs() || !elastic_planes;
-    // (alone, the move, the re-placing and the next warm start go in one pass: see
-    // `move_place_and_warm`)
-    let fused = substeps > 1 && exchange.alone() && own == position.len();
-    for (index, pass) in (0..substeps)
+    for (index, pass) in (0..plan.substeps)
         .map(|_| Pass::Relax)
         .chain([Pass::Restitution])
         .enumerate()
     {
+        let last_relax = index as u32 + 1 == plan.substeps;
         if pass == Pass::Restitution {
-            exchange.settle_rows(c.blocks, c.rows.reborrow());
-            if !kept_by_place {
-                c.rows.keep_impulses(parallel);
-                for row in c.plane_rows.iter_mut() {
-                    row.kept = row.impulse;
-                }
-                exchange.keep_impulses();
-            }
-            if impacts == 0 {
+            keep_impulses(exchange, &plan, c);
+            if plan.impacts == 0 {
                 break;
             }
         } else {
             // (after the first substep, the move before took gravity in: see below)
             if index == 0 {
                 let clock = Instant::now();
-                accelerate(parallel, &mut velocity[..own], asleep, gravity * h);
+                let dv = gravity * plan.h;
+                accelerate(plan.parallel, &mut velocity[..own], asleep, dv);
                 solve.motion += clock.elapsed();
             }
-            if warm && !(index > 0 && fused) {
+            if plan.warm && !(index > 0 && plan.fused) {
                 warm_start(exchange, velocity, c);
             }
         }
-        // (the restitution pass, once a step, may take the whole cap: an impact on a pile must
-        // travel through it for the pile to hold)
-        let cap = match pass {
-            Pass::Restitution => settings.velocity_iterations.max(1),
-            Pass::Relax => (settings.velocity_iterations / substeps).max(1),
-        };
-        let (sweeps, capped) = relax(
-            exchange,
-            settings,
-            velocity,
-            c,
-            pass,
-            cap,
-            !planes_in_move,
-            &mut solve,
+        sweep_pass(
+            exchange, settings, &plan, pass, last_relax, velocity, c, &mut solve,
         );
-        // (after the last substep's relax, and after every substep's when nothing struck this
-        // step: a shock sweep in every substep while impacts rain on a pile stirs it, and the
-        // lecture pile came to rest at step 1043 instead of 752; but a pile at rest sinks in
-        // the substeps that have none, a column of 100 discs 2.8 % of r)
-        let last_relax = index as u32 + 1 == substeps;
-        let shock_now = last_relax || (pass == Pass::Relax && impacts == 0);
-        if capped && shock_now && !settings.lecture_pairs() && gravity != V::ZERO {
-            let up = gravity * (-1.0 / gravity.length_squared().sqrt());
-            shock(exchange, velocity, c, up, !planes_in_move);
-        }
-        solve.iterations += sweeps;
-        solve.capped |= capped;
         if pass == Pass::Relax {
             let clock = Instant::now();
             // (the next substep's gravity in the same pass over the particles: re-placing the
             // contacts reads positions alone, so it may come after)
-            let next_fall = (!last_relax).then_some(gravity * h);
-            if fused {
-                let warm_next = warm && !last_relax;
+            let next_fall = (!last_relax).then_some(gravity * plan.h);
+            if plan.fused {
+                let warm_next = plan.warm && !last_relax;
+                let h = plan.h;
                 move_place_and_warm(position, velocity, asleep, c, h, next_fall, warm_next);
             } else {
                 let (x, v) = (&mut position[..own], &mut velocity[..own]);
-                advance_positions(parallel, x, v, asleep, h, next_fall);
-                if substeps > 1 {
-                    place(exchange, position, c, h, last_relax);
+                advance_positions(plan.parallel, x, v, asleep, plan.h, next_fall);
+                if plan.substeps > 1 {
+                    place(exchange, position, c, plan.h, last_relax);
                 }
             }
             solve.motion += clock.elapsed();
         }
     }
-    if planes_in_move {
+    if plan.planes_in_move {
         let clock = Instant::now();
         let bounces = bounce_in_move(&mut position[..own], &mut velocity[..own], c, gravity, dt);
         solve.motion += clock.elapsed();
@@ -157,6 +102,130 @@ pub(crate) fn integrate<V: Vector, E: Exchange<V>>(
     }
     exchange.settle_rows(c.blocks, c.rows.reborrow());
     solve
+}
+
+/// What [`integrate`] decides once a step, before its passes.
+struct StepPlan<V> {
+    /// Substeps (1 for the lecture's step).
+    substeps: u32,
+    /// The substep, `dt / substeps`.
+    h: f64,
+    /// Impacts classified this step, over every process.
+    impacts: u64,
+    /// Whether planes bounce in the move (see [`bounce_in_move`]) instead of in the sweeps.
+    planes_in_move: bool,
+    /// Whether the remembered impulses are applied (warm starting).
+    warm: bool,
+    /// Whether the move, the re-placing and the next warm start go in one pass (see
+    /// [`move_place_and_warm`]): a process alone, with substeps.
+    fused: bool,
+    /// Whether the passes run on the thread pool.
+    parallel: bool,
+    /// Up, against gravity, when there is gravity.
+    up: Option<V>,
+}
+
+impl<V: Vector> StepPlan<V> {
+    /// Classifies the step's impacts (see [`classify`]) and settles how the step goes.
+    fn new<E: Exchange<V>>(
+        exchange: &mut E,
+        settings: &SolverSettings,
+        gravity: V,
+        dt: f64,
+        velocity: &mut [V],
+        c: &mut Contacts<V>,
+        own: usize,
+    ) -> Self {
+        let elastic_planes = c.planes.iter().all(|p| p.restitution() >= 1.0);
+        let substeps = if settings.lecture_only(elastic_planes) {
+            1
+        } else {
+            settings.substeps.max(1)
+        };
+        let impacts = classify(
+            exchange,
+            settings,
+            velocity,
+            c,
+            substeps as f64,
+            gravity,
+            dt,
+        );
+        let g = gravity.length_squared().sqrt();
+        StepPlan {
+            substeps,
+            h: dt / substeps as f64,
+            // (every process's count: each decides the same thing from it)
+            impacts: exchange.total(impacts),
+            planes_in_move: settings.planes_in_move(c.planes, gravity),
+            warm: !settings.lecture_pairs() || !elastic_planes,
+            fused: substeps > 1 && exchange.alone() && own == velocity.len(),
+            parallel: c.blocks.parallel(),
+            up: (gravity != V::ZERO).then(|| gravity * (-1.0 / g)),
+        }
+    }
+}
+
+/// Before the restitution pass: the rows settled between processes, and the impulses the
+/// next step's warm start takes kept (the last substep's re-placing kept them already when
+/// there are substeps: see [`place`]).
+fn keep_impulses<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    plan: &StepPlan<V>,
+    c: &mut Contacts<V>,
+) {
+    exchange.settle_rows(c.blocks, c.rows.reborrow());
+    if plan.substeps == 1 {
+        c.rows.keep_impulses(plan.parallel);
+        for row in c.plane_rows.iter_mut() {
+            row.kept = row.impulse;
+        }
+        exchange.keep_impulses();
+    }
+}
+
+/// One pass's sweeps (see [`relax`]), then, when they hit their cap, a shock sweep: after the
+/// last substep's relax, and after every substep's when nothing struck this step. (A shock
+/// sweep in every substep while impacts rain on a pile stirs it, and the lecture pile came to
+/// rest at step 1043 instead of 752; but a pile at rest sinks in the substeps that have none,
+/// a column of 100 discs 2.8 % of r.)
+#[allow(clippy::too_many_arguments)]
+fn sweep_pass<V: Vector, E: Exchange<V>>(
+    exchange: &mut E,
+    settings: &SolverSettings,
+    plan: &StepPlan<V>,
+    pass: Pass,
+    last_relax: bool,
+    velocity: &mut [V],
+    c: &mut Contacts<V>,
+    solve: &mut VelocitySolve,
+) {
+    // (the restitution pass, once a step, may take the whole cap: an impact on a pile must
+    // travel through it for the pile to hold)
+    let cap = match pass {
+        Pass::Restitution => settings.velocity_iterations.max(1),
+        Pass::Relax => (settings.velocity_iterations / plan.substeps).max(1),
+    };
+    let with_planes = !plan.planes_in_move;
+    let (sweeps, capped) = relax(
+        exchange,
+        settings,
+        velocity,
+        c,
+        pass,
+        cap,
+        with_planes,
+        solve,
+    );
+    let shock_now = last_relax || (pass == Pass::Relax && plan.impacts == 0);
+    if let Some(up) = plan
+        .up
+        .filter(|_| capped && shock_now && !settings.lecture_pairs())
+    {
+        shock(exchange, velocity, c, up, with_planes);
+    }
+    solve.iterations += sweeps;
+    solve.capped |= capped;
 }
 
 /// `v += dv` for every particle not `asleep` (empty: none is), on the thread pool when

@@ -178,27 +178,7 @@ impl<V: Vector> WorldBuilder<V> {
             config.periodic = [false; 3];
             config.periodic[..V::DIM].copy_from_slice(axes);
         }
-        check_dt(config.dt)?;
-        if !config.gravity.is_finite_vector() {
-            return Err(EngineError::NonFinite("gravity"));
-        }
-        check_restitution(config.restitution)?;
-        if config.substeps == 0 {
-            return Err(EngineError::Substeps);
-        }
-        if let Some(speed) = config.sleep_speed {
-            if !(speed.is_finite() && speed > 0.0) {
-                return Err(EngineError::NonFinite("sleep speed (must be > 0)"));
-            }
-        }
-        if !(config.sleep_time.is_finite() && config.sleep_time > 0.0) {
-            return Err(EngineError::NonFinite("sleep time (must be > 0)"));
-        }
-        if let Some(speed) = config.resting_speed {
-            if !(speed.is_finite() && speed >= 0.0) {
-                return Err(EngineError::NonFinite("resting speed (must be >= 0)"));
-            }
-        }
+        check_settings(&config)?;
         let periodic = check_periodic(&config, &self.particles)?;
         let mut planes = self.planes;
         if let Some(k) = self.walls {
@@ -221,16 +201,7 @@ impl<V: Vector> WorldBuilder<V> {
             None => (0, (0..n as u32).collect()),
             Some((steps, order)) => (steps, order),
         };
-        let mut slots = vec![u32::MAX; n];
-        for (slot, &id) in ids.iter().enumerate() {
-            match slots.get_mut(id as usize) {
-                Some(s) if *s == u32::MAX => *s = slot as u32,
-                _ => return Err(EngineError::StorageOrder),
-            }
-        }
-        if ids.len() != n {
-            return Err(EngineError::StorageOrder);
-        }
+        let slots = slots_of(&ids, n)?;
         if !memory::is_valid(&self.impulses, n, planes.len()) {
             return Err(EngineError::ContactImpulses);
         }
@@ -242,24 +213,7 @@ impl<V: Vector> WorldBuilder<V> {
                 .map(|&id| self.impulses.rest[id as usize])
                 .collect()
         };
-        let store = if ids
-            .iter()
-            .enumerate()
-            .all(|(slot, &id)| slot == id as usize)
-        {
-            particles // already in storage order: move, do not copy
-        } else {
-            let mut store = Particles::new();
-            for &id in &ids {
-                let id = id as usize;
-                let p = &particles;
-                store.position.push(p.position[id]);
-                store.velocity.push(p.velocity[id]);
-                store.radius.push(p.radius[id]);
-                store.mass.push(p.mass[id]);
-            }
-            store
-        };
+        let store = in_storage_order(particles, &ids);
         Ok(World {
             config,
             periodic,
@@ -297,6 +251,69 @@ impl<V: Vector> WorldBuilder<V> {
             found_overlap: 0.0,
         })
     }
+}
+
+/// The checks of [`WorldBuilder::build`] on the settings alone.
+fn check_settings<V: Vector>(config: &WorldConfig<V>) -> Result<(), EngineError> {
+    check_dt(config.dt)?;
+    if !config.gravity.is_finite_vector() {
+        return Err(EngineError::NonFinite("gravity"));
+    }
+    check_restitution(config.restitution)?;
+    if config.substeps == 0 {
+        return Err(EngineError::Substeps);
+    }
+    if let Some(speed) = config.sleep_speed {
+        if !(speed.is_finite() && speed > 0.0) {
+            return Err(EngineError::NonFinite("sleep speed (must be > 0)"));
+        }
+    }
+    if !(config.sleep_time.is_finite() && config.sleep_time > 0.0) {
+        return Err(EngineError::NonFinite("sleep time (must be > 0)"));
+    }
+    if let Some(speed) = config.resting_speed {
+        if !(speed.is_finite() && speed >= 0.0) {
+            return Err(EngineError::NonFinite("resting speed (must be >= 0)"));
+        }
+    }
+    Ok(())
+}
+
+/// The slot of each id, from the id of each slot (`ids`, for `n` particles): each id in
+/// `0..n` exactly once, or an error.
+fn slots_of(ids: &[u32], n: usize) -> Result<Vec<u32>, EngineError> {
+    let mut slots = vec![u32::MAX; n];
+    for (slot, &id) in ids.iter().enumerate() {
+        match slots.get_mut(id as usize) {
+            Some(s) if *s == u32::MAX => *s = slot as u32,
+            _ => return Err(EngineError::StorageOrder),
+        }
+    }
+    if ids.len() != n {
+        return Err(EngineError::StorageOrder);
+    }
+    Ok(slots)
+}
+
+/// `particles` (in id order) in the storage order `ids` (the id of each slot).
+fn in_storage_order<V: Vector>(particles: Particles<V>, ids: &[u32]) -> Particles<V> {
+    if ids
+        .iter()
+        .enumerate()
+        .all(|(slot, &id)| slot == id as usize)
+    {
+        return particles; // already in storage order: move, do not copy
+    }
+    let mut store = Particles::new();
+    for &id in ids {
+        let id = id as usize;
+        let p = &particles;
+        store.position.push(p.position[id]);
+        store.velocity.push(p.velocity[id]);
+        store.radius.push(p.radius[id]);
+        store.mass.push(p.mass[id]);
+    }
+    store
 }
 
 /// The broad phase `config` asks for.

@@ -116,6 +116,43 @@ impl<V: Vector> Subdomain<V> {
     /// phase over own and ghost particles and keeps the candidates whose lower slot is own;
     /// then the own plane candidates, the rows, and the remembered impulses.
     pub(super) fn find_contacts<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
+        self.find_pairs(link);
+        self.mark_sleepers(link);
+        self.find_plane_contacts();
+        self.prepare_pair_rows();
+        let (own, parallel) = (self.own, self.partition.slots() >= PARALLEL_MIN);
+        self.agree_on_borrowing(link);
+        self.blocks.plan(
+            own + self.halo,
+            self.partition.block(),
+            &self.pairs,
+            &self.plane_contacts,
+            parallel,
+            self.partition.blocks_of(self.rank).start,
+        );
+        if self.rerouting {
+            self.place_arrived(link);
+            self.rerouting = false;
+        }
+        self.memory.warm_rows(
+            &self.pairs,
+            &mut self.rows.row,
+            &self.plane_contacts,
+            &mut self.plane_rows,
+        );
+        self.leftovers.gather(
+            link,
+            self.first_slot,
+            own,
+            &self.blocks,
+            &self.pairs,
+            &self.rows,
+        );
+    }
+
+    /// The reaches, the search with ghosts (raised and again, as a world's), and the
+    /// candidates whose lower slot is own: `pairs` in slots, sorted, and each one's partner id.
+    fn find_pairs<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
         let own = self.own;
         let dt = self.config.dt;
         let fall = self.config.gravity.length_squared().sqrt() * dt;
@@ -162,7 +199,11 @@ impl<V: Vector> Subdomain<V> {
         self.partners.clear();
         self.partners
             .extend(self.candidates.iter().map(|c| search.id[c.1 .1 as usize]));
-        self.mark_sleepers(link);
+    }
+
+    /// Own particles' plane candidates and their rows.
+    fn find_plane_contacts(&mut self) {
+        let (own, dt) = (self.own, self.config.dt);
         self.plane_contacts.clear();
         let (window, reach, sleepers) = (&self.window, &self.reach, &self.sleepers);
         plane_candidates(
@@ -181,7 +222,11 @@ impl<V: Vector> Subdomain<V> {
             &window.radius,
             dt,
         );
-        let parallel = self.partition.slots() >= PARALLEL_MIN;
+    }
+
+    /// A row per pair candidate, from the search's copies of both particles.
+    fn prepare_pair_rows(&mut self) {
+        let dt = self.config.dt;
         let candidates = &self.candidates;
         let (search, sleepers) = (&self.search, &self.sleepers);
         self.rows.clear();
@@ -203,33 +248,6 @@ impl<V: Vector> Subdomain<V> {
         }
         self.rows.keep_headroom();
         self.found_overlap = solver::deepest_placed(&self.rows);
-        self.agree_on_borrowing(link);
-        self.blocks.plan(
-            own + self.halo,
-            self.partition.block(),
-            &self.pairs,
-            &self.plane_contacts,
-            parallel,
-            self.partition.blocks_of(self.rank).start,
-        );
-        if self.rerouting {
-            self.place_arrived(link);
-            self.rerouting = false;
-        }
-        self.memory.warm_rows(
-            &self.pairs,
-            &mut self.rows.row,
-            &self.plane_contacts,
-            &mut self.plane_rows,
-        );
-        self.leftovers.gather(
-            link,
-            self.first_slot,
-            own,
-            &self.blocks,
-            &self.pairs,
-            &self.rows,
-        );
     }
 
     /// [`World::sleeps_whole`] over every rank. Collective (only when particles may sleep).
