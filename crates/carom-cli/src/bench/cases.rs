@@ -205,23 +205,19 @@ pub(super) fn cases(args: &BenchArgs) -> Vec<Case> {
                     continue;
                 }
                 let steps = if args.quick { 10 } else { 40 };
-                out.push(Case {
-                    group: format!("sweep {dim}D"),
-                    name: format!("{dim}D, {n} particles"),
+                let case = |group: String, name: String, threads| Case {
+                    group,
+                    name,
                     toml: sweep_toml(dim, n),
                     warmup: 10,
                     steps,
                     threads,
-                });
+                };
+                let name = format!("{dim}D, {n} particles");
+                out.push(case(format!("sweep {dim}D"), name.clone(), threads));
                 if n == 1_000_000 && threads != Some(1) {
-                    single_thread.push(Case {
-                        group: format!("threads {dim}D"),
-                        name: format!("{dim}D, {n} particles, 1 thread"),
-                        toml: sweep_toml(dim, n),
-                        warmup: 10,
-                        steps,
-                        threads: Some(1),
-                    });
+                    let group = format!("threads {dim}D");
+                    single_thread.push(case(group, format!("{name}, 1 thread"), Some(1)));
                 }
             }
         }
