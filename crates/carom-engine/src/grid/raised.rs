@@ -35,9 +35,7 @@ impl<V: Vector> Grid<V> {
         pairs: &mut Vec<Pair>,
     ) {
         let n = positions.len();
-        let max_radius = largest(radii);
-        self.plan_layout(positions, max_radius);
-        self.build_buckets(positions);
+        let max_radius = self.bin(positions, radii);
         let layout = self.layout;
         let (cell_start, ids) = (&self.cell_start, &self.ids);
         let Raising { speed, radius_at } = *raising;

@@ -21,36 +21,9 @@ impl<V: Vector> Subdomain<V> {
         if n == 0 {
             return;
         }
-        let own = self.own;
-        let bounds = match self.config.domain {
-            Some(domain) => domain,
-            None => {
-                let mut w = Writer::default();
-                if own > 0 {
-                    let b = bounding_box(&self.window.position[..own]);
-                    w.vector(b.min).vector(b.max);
-                }
-                let boxes = link.gather(TrafficKind::Reductions, &w.0);
-                let mut all: Option<Aabb<V>> = None;
-                for bytes in boxes.iter().filter(|b| !b.is_empty()) {
-                    let mut r = Reader::new(bytes);
-                    let (min, max) = (r.vector::<V>(), r.vector::<V>());
-                    all = Some(match all {
-                        None => Aabb { min, max },
-                        Some(a) => Aabb {
-                            min: a.min.min_components(min),
-                            max: a.max.max_components(max),
-                        },
-                    });
-                }
-                all.unwrap_or(Aabb {
-                    min: V::ZERO,
-                    max: V::ZERO,
-                })
-            }
-        };
+        let bounds = self.sort_bounds(link);
         let layout = sort_layout(&bounds, self.max_radius, n);
-        let mut order: Vec<(u64, u32)> = (0..own)
+        let mut order: Vec<(u64, u32)> = (0..self.own)
             .map(|s| {
                 (
                     sort_value(&layout, self.window.position[s], self.ids[s]),
@@ -60,11 +33,52 @@ impl<V: Vector> Subdomain<V> {
             .collect();
         order.sort_unstable();
         let splits = self.find_splits(link, &order);
-        // Each particle goes to the rank whose range of values holds it: only the particles
-        // that crossed a border move.
-        let mut outgoing: Vec<Writer> = (0..link.ranks()).map(|_| Writer::default()).collect();
+        let outgoing = self.departures(&order, &splits, link.ranks());
+        let arrivals = link.exchange(TrafficKind::Migration, outgoing);
+        self.take_arrivals(arrivals);
+        self.memory.clear();
+        self.memory_partners.clear();
+        self.rerouting = true;
+    }
+
+    /// The box the spatial sort's grid covers: the domain, or the bounding box of every rank's
+    /// particles (one gather).
+    fn sort_bounds<T: Transport + ?Sized>(&self, link: &mut Link<'_, T>) -> Aabb<V> {
+        if let Some(domain) = self.config.domain {
+            return domain;
+        }
+        let own = self.own;
+        let mut w = Writer::default();
+        if own > 0 {
+            let b = bounding_box(&self.window.position[..own]);
+            w.vector(b.min).vector(b.max);
+        }
+        let boxes = link.gather(TrafficKind::Reductions, &w.0);
+        let mut all: Option<Aabb<V>> = None;
+        for bytes in boxes.iter().filter(|b| !b.is_empty()) {
+            let mut r = Reader::new(bytes);
+            let (min, max) = (r.vector::<V>(), r.vector::<V>());
+            all = Some(match all {
+                None => Aabb { min, max },
+                Some(a) => Aabb {
+                    min: a.min.min_components(min),
+                    max: a.max.max_components(max),
+                },
+            });
+        }
+        all.unwrap_or(Aabb {
+            min: V::ZERO,
+            max: V::ZERO,
+        })
+    }
+
+    /// One message per rank: each own particle (in `order`, by sort value) with its state and
+    /// its remembered impulses, to the rank whose range of values (`splits`) holds it. Only
+    /// the particles that crossed a border move.
+    fn departures(&self, order: &[(u64, u32)], splits: &[u64], ranks: usize) -> Vec<Writer> {
+        let mut outgoing: Vec<Writer> = (0..ranks).map(|_| Writer::default()).collect();
         let (pairs, planes) = (&self.memory.pairs, &self.memory.planes);
-        for &(value, s) in &order {
+        for &(value, s) in order {
             let w = &mut outgoing[splits.partition_point(|&split| split <= value)];
             let s = s as usize;
             w.u64(value)
@@ -86,10 +100,16 @@ impl<V: Vector> Subdomain<V> {
                 w.u32(planes[k].1).f64(planes[k].2);
             }
         }
-        let mut arrived: Vec<(u64, V, V, f64, f64, f64)> = Vec::with_capacity(own);
+        outgoing
+    }
+
+    /// Fills the own slots with the particles of `messages` ([`Subdomain::departures`] from
+    /// every rank), in order of sort value, and keeps their impulses to be placed again.
+    fn take_arrivals(&mut self, messages: Vec<Vec<u8>>) {
+        let mut arrived: Vec<(u64, V, V, f64, f64, f64)> = Vec::with_capacity(self.own);
         self.arrived_pairs.clear();
         self.arrived_planes.clear();
-        for bytes in link.exchange(TrafficKind::Migration, outgoing) {
+        for bytes in messages {
             let mut r = Reader::new(&bytes);
             while !r.is_empty() {
                 let record = (r.u64(), r.vector(), r.vector(), r.f64(), r.f64(), r.f64());
@@ -104,7 +124,7 @@ impl<V: Vector> Subdomain<V> {
             }
         }
         arrived.sort_unstable_by_key(|a| a.0);
-        debug_assert_eq!(arrived.len(), own, "a rank keeps its slot count");
+        debug_assert_eq!(arrived.len(), self.own, "a rank keeps its slot count");
         for (s, (value, x, v, radius, mass, rested)) in arrived.into_iter().enumerate() {
             self.ids[s] = value as u32;
             self.window.position[s] = x;
@@ -113,9 +133,6 @@ impl<V: Vector> Subdomain<V> {
             self.window.mass[s] = mass;
             self.rest[s] = rested;
         }
-        self.memory.clear();
-        self.memory_partners.clear();
-        self.rerouting = true;
     }
 
     /// The sort values where ranks 1.. start: the value at global position `first slot of

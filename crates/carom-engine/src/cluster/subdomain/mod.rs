@@ -163,6 +163,71 @@ impl<V: Vector> Search<V> {
     }
 }
 
+/// What a rank takes of a whole world: its slots' particles (with room for the halo after
+/// them), their ids, rest times and remembered impulses.
+struct Share<V> {
+    ids: Vec<u32>,
+    window: Particles<V>,
+    rest: Vec<f64>,
+    memory: Memory,
+    memory_partners: Vec<u32>,
+}
+
+impl<V: Vector> Share<V> {
+    /// The particles of `slots` of `world` (every rank built the same one), followed by `halo`
+    /// placeholders.
+    fn of(world: &World<V>, slots: std::ops::Range<usize>, halo: usize) -> Self {
+        let n = world.len();
+        let store = &world.store;
+        // The ids in every slot. When the first step will sort anyway, take the order that
+        // sort will give: every rank has the whole world here, so that step then finds every
+        // particle on its rank already, instead of moving most of them.
+        let order: Vec<u32> =
+            if world.steps_taken() % REORDER_INTERVAL == 0 && !world.sleeps_whole() {
+                world.next_sort_order()
+            } else {
+                world.ids.clone()
+            };
+        let ids = order[slots.clone()].to_vec();
+        let room = slots.len() + halo;
+        let slot_of = |id: u32| world.slots[id as usize] as usize;
+        let window = |v: &[V]| {
+            let mut w: Vec<V> = ids.iter().map(|&id| v[slot_of(id)]).collect();
+            w.resize(room, V::ZERO);
+            w
+        };
+        let window_f64 = |v: &[f64]| {
+            let mut w: Vec<f64> = ids.iter().map(|&id| v[slot_of(id)]).collect();
+            w.resize(room, 1.0);
+            w
+        };
+        let mut slot_in_order = vec![0u32; n];
+        for (slot, &id) in order.iter().enumerate() {
+            slot_in_order[id as usize] = slot as u32;
+        }
+        let impulses = world.contact_impulses();
+        let rest = if impulses.rest.is_empty() {
+            vec![0.0; ids.len()]
+        } else {
+            ids.iter().map(|&id| impulses.rest[id as usize]).collect()
+        };
+        let (memory, memory_partners) = own_memory(&impulses, &slot_in_order, &order, slots);
+        let window = Particles {
+            position: window(&store.position),
+            velocity: window(&store.velocity),
+            radius: window_f64(&store.radius),
+            mass: window_f64(&store.mass),
+        };
+        Share {
+            ids,
+            window,
+            rest,
+            memory,
+            memory_partners,
+        }
+    }
+}
+
 impl<V: Vector> std::fmt::Debug for Subdomain<V> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Subdomain")
@@ -188,40 +253,7 @@ impl<V: Vector> Subdomain<V> {
         let halo = partition.halo_owner(rank).map_or(0, |_| {
             partition.block_slots(partition.blocks_of(rank).end).len()
         });
-        let store = &world.store;
-        // The ids in every slot. When the first step will sort anyway, take the order that
-        // sort will give: every rank has the whole world here, so that step then finds every
-        // particle on its rank already, instead of moving most of them.
-        let order: Vec<u32> =
-            if world.steps_taken() % REORDER_INTERVAL == 0 && !world.sleeps_whole() {
-                world.next_sort_order()
-            } else {
-                world.ids.clone()
-            };
-        let ids = order[slots.clone()].to_vec();
-        let slot_of = |id: u32| world.slots[id as usize] as usize;
-        let window = |v: &[V]| {
-            let mut w: Vec<V> = ids.iter().map(|&id| v[slot_of(id)]).collect();
-            w.resize(slots.len() + halo, V::ZERO);
-            w
-        };
-        let window_f64 = |v: &[f64]| {
-            let mut w: Vec<f64> = ids.iter().map(|&id| v[slot_of(id)]).collect();
-            w.resize(slots.len() + halo, 1.0);
-            w
-        };
-        let mut slot_in_order = vec![0u32; n];
-        for (slot, &id) in order.iter().enumerate() {
-            slot_in_order[id as usize] = slot as u32;
-        }
-        let impulses = world.contact_impulses();
-        let rest = if impulses.rest.is_empty() {
-            vec![0.0; ids.len()]
-        } else {
-            ids.iter().map(|&id| impulses.rest[id as usize]).collect()
-        };
-        let (memory, memory_partners) =
-            own_memory(&impulses, &slot_in_order, &order, slots.clone());
+        let share = Share::of(world, slots.clone(), halo);
         Ok(Self {
             config: world.config().clone(),
             planes: world.planes().to_vec(),
@@ -229,14 +261,9 @@ impl<V: Vector> Subdomain<V> {
             first_slot: slots.start,
             own: slots.len(),
             halo,
-            window: Particles {
-                position: window(&store.position),
-                velocity: window(&store.velocity),
-                radius: window_f64(&store.radius),
-                mass: window_f64(&store.mass),
-            },
-            ids,
-            max_radius: store.max_radius(),
+            window: share.window,
+            ids: share.ids,
+            max_radius: world.store.max_radius(),
             // Every broad phase finds the same pairs, so each rank may pick the one that suits
             // its share: a grid over its own particles and ghosts, not over the whole domain
             // (whose cell count would not shrink with more ranks).
@@ -254,13 +281,13 @@ impl<V: Vector> Subdomain<V> {
             found_overlap: 0.0,
             plane_contacts: Vec::new(),
             plane_rows: Vec::new(),
-            memory,
-            memory_partners,
+            memory: share.memory,
+            memory_partners: share.memory_partners,
             kept_asleep: Vec::new(),
             arrived_pairs: Vec::new(),
             arrived_planes: Vec::new(),
             rerouting: false,
-            rest,
+            rest: share.rest,
             sleepers: SplitSleepers::default(),
             start: Vec::new(),
             asleep_overlap: 0.0,
