@@ -89,7 +89,7 @@ fn resume(py: Python<'_>, checkpoint_path: PathBuf) -> PyResult<World> {
         .map_err(|e| os_error("cannot read checkpoint", &e, &checkpoint_path))?;
     let cp = Checkpoint::read_from(&bytes)
         .map_err(|e| PyValueError::new_err(format!("{shown}: {e}")))?;
-    let settings: Settings = serde_json::from_str(&cp.settings_json)
+    let settings: carom_scene::RunSettings = serde_json::from_str(&cp.settings_json)
         .map_err(|e| PyValueError::new_err(format!("{shown}: damaged run settings: {e}")))?;
     let scene = carom_scene::parse(&cp.scene_toml, &cp.origin)
         .map_err(|e| scene_error(py, format!("{shown}: {e}"), &e.origin, e.field.as_deref()))?;

@@ -5,8 +5,9 @@
 use crate::convert::*;
 use crate::errors::*;
 use carom_engine::glam::{DVec2, DVec3};
-use carom_engine::{BroadPhaseKind, Vector};
+use carom_engine::Vector;
 use carom_output::checkpoint::Checkpoint;
+use carom_scene::RunSettings;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -22,19 +23,6 @@ pub(crate) const CHUNK: Duration = Duration::from_millis(50);
 
 /// The origin `from_toml` gives its scenes in messages and checkpoints.
 pub(crate) const STRING_ORIGIN: &str = "<string>";
-
-/// Run settings a checkpoint carries besides the scene text: the JSON that `carom run`
-/// writes (`crates/carom-cli/src/driver/step.rs`, `Settings`), field for field: a copy (see
-/// the CHANGELOG: one shared definition is still to do).
-#[derive(serde::Serialize, serde::Deserialize, Debug, Clone, Default)]
-pub(crate) struct Settings {
-    /// Total steps of the run (`carom resume` continues to this many).
-    pub(crate) steps: u64,
-    /// `--broadphase` override, if any.
-    pub(crate) broadphase: Option<String>,
-    /// `--cells` override, if any.
-    pub(crate) cells: Option<Vec<usize>>,
-}
 
 /// A world of either dimension.
 pub(crate) enum AnyWorld {
@@ -60,7 +48,7 @@ pub(crate) struct Meta {
     pub(crate) origin: String,
     /// The scene's `name`.
     pub(crate) name: Option<String>,
-    pub(crate) settings: Settings,
+    pub(crate) settings: RunSettings,
 }
 
 pub(crate) struct State {
@@ -140,7 +128,7 @@ pub(crate) fn build(py: Python<'_>, text: String, origin: String) -> PyResult<Wo
             scene_toml: text,
             origin,
             name,
-            settings: Settings {
+            settings: RunSettings {
                 steps,
                 broadphase: None,
                 cells: None,
@@ -178,46 +166,17 @@ pub(crate) fn checkpoint_of<V: Vector>(
     ))
 }
 
-/// Applies a checkpoint's `--broadphase` and `--cells` overrides to its scene, as
-/// `carom resume` does.
-pub(crate) fn apply_overrides<V: Vector>(
-    scene: &mut carom_scene::Scene<V>,
-    settings: &Settings,
-) -> Result<(), String> {
-    match settings.broadphase.as_deref() {
-        Some("brute") => scene.config.broad_phase = BroadPhaseKind::Brute,
-        Some("grid") => scene.config.broad_phase = BroadPhaseKind::Grid,
-        Some("hash") => scene.config.broad_phase = BroadPhaseKind::Hash,
-        Some(other) => return Err(format!("--broadphase: unknown `{other}`")),
-        None => {}
-    }
-    if let Some(cells) = &settings.cells {
-        if cells.len() != V::DIM || cells.contains(&0) {
-            return Err(format!(
-                "--cells: needs {} whole numbers >= 1 (the scene is {}D), got {cells:?}",
-                V::DIM,
-                V::DIM
-            ));
-        }
-        if scene.config.broad_phase != BroadPhaseKind::Grid {
-            return Err("--cells: only the grid has cells, and this run does not use it".into());
-        }
-        scene.config.grid_cells = Some(cells.to_vec());
-    }
-    Ok(())
-}
-
 /// The world a checkpoint holds, as `carom resume` rebuilds it; errors as the CLI words them
 /// (after `shown: `).
 pub(crate) fn resumed<V: Vector>(
     mut scene: carom_scene::Scene<V>,
     cp: &Checkpoint,
-    settings: &Settings,
+    settings: &RunSettings,
 ) -> Result<carom_engine::World<V>, String> {
     if cp.dimensions as usize != V::DIM {
         return Err("damaged checkpoint: dimensions disagree with its scene".into());
     }
-    apply_overrides(&mut scene, settings)?;
+    settings.apply_to(&mut scene).map_err(|e| e.to_string())?;
     scene.particles = cp.particles().map_err(|e| e.to_string())?;
     scene
         .into_resumed_world(

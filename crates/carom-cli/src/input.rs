@@ -3,7 +3,7 @@
 //! refusal is a [`Failure::Input`] (exit status 2) that names the flag.
 
 use crate::failure::Failure;
-use carom_engine::{BroadPhaseKind, Vector};
+use carom_engine::Vector;
 use carom_scene::{AnyScene, Scene, MAX_STEPS};
 use std::path::{Path, PathBuf};
 
@@ -131,54 +131,27 @@ pub fn check_steps(flag: &str, steps: Option<u64>) -> Result<(), Failure> {
 }
 
 /// `--cells`, before the scene is read: every entry at least 1, and no more cells in all than
-/// the grid allows.
+/// the grid allows (see [`carom_scene::check_cells`]).
 pub fn check_cells(cells: Option<&[usize]>) -> Result<(), Failure> {
-    let Some(cells) = cells else { return Ok(()) };
-    if cells.is_empty() || cells.contains(&0) {
-        return Err(Failure::input(format!(
-            "--cells: needs whole numbers >= 1, one per axis, got {cells:?}"
-        )));
-    }
-    let total = cells.iter().fold(1u64, |t, &c| t.saturating_mul(c as u64));
-    let limit = carom_engine::grid::MAX_CELLS;
-    if total > limit {
-        return Err(Failure::input(format!(
-            "--cells: {total} cells in all is more than the limit {limit}"
-        )));
-    }
-    Ok(())
+    cells
+        .map_or(Ok(()), carom_scene::check_cells)
+        .map_err(overridden)
 }
 
-/// Applies `--broadphase` and `--cells` to a scene.
+/// Applies `--broadphase` and `--cells` to a scene (see [`Scene::override_broad_phase`]).
 pub fn apply_overrides<V: Vector>(
     scene: &mut Scene<V>,
     broadphase: Option<&str>,
     cells: Option<&[usize]>,
 ) -> Result<(), Failure> {
-    match broadphase {
-        Some("brute") => scene.config.broad_phase = BroadPhaseKind::Brute,
-        Some("grid") => scene.config.broad_phase = BroadPhaseKind::Grid,
-        Some("hash") => scene.config.broad_phase = BroadPhaseKind::Hash,
-        Some(other) => return Err(Failure::input(format!("--broadphase: unknown `{other}`"))),
-        None => {}
-    }
-    if let Some(cells) = cells {
-        check_cells(Some(cells))?;
-        if cells.len() != V::DIM {
-            return Err(Failure::input(format!(
-                "--cells: needs {} whole numbers >= 1 (the scene is {}D), got {cells:?}",
-                V::DIM,
-                V::DIM
-            )));
-        }
-        if scene.config.broad_phase != BroadPhaseKind::Grid {
-            return Err(Failure::input(
-                "--cells: only the grid has cells, and this run does not use it; add --broadphase grid",
-            ));
-        }
-        scene.config.grid_cells = Some(cells.to_vec());
-    }
-    Ok(())
+    scene
+        .override_broad_phase(broadphase, cells)
+        .map_err(overridden)
+}
+
+/// A refused override, as bad input.
+pub fn overridden(e: carom_scene::OverrideError) -> Failure {
+    Failure::input(e.to_string())
 }
 
 /// `WIDTHxHEIGHT` (or `WIDTHXHEIGHT`) with each side in `sides`, for `flag`.

@@ -11,19 +11,39 @@ use carom_engine::cluster::Transport;
 use carom_engine::{Vector, World};
 use indicatif::ProgressBar;
 
-/// Steps `world` to `steps` with its outputs, then finishes (summary, final CSV, status):
-/// alone, split over `mpirun`'s ranks (with the `mpi` feature), or split over `ranks` threads.
-/// `rebuild` makes another copy of the starting world: every thread rank builds its own, as
-/// every MPI rank does.
+/// Builds a run's starting worlds: `copies(n)` gives `n >= 1` copies of the same world (one
+/// per thread rank), built from what the closure owns (the scene, the checkpoint), which is
+/// dropped once they are built: a run at 10^6 particles does not keep the scene's particle
+/// arrays (48 bytes a particle) beside the world's for its whole length.
+pub trait BuildWorlds<V: Vector>: FnOnce(usize) -> Result<Vec<World<V>>, Failure> {}
+impl<V: Vector, F: FnOnce(usize) -> Result<Vec<World<V>>, Failure>> BuildWorlds<V> for F {}
+
+/// `copies` (at least one) of what `make` makes of `source`: of clones of it, the last of
+/// `source` itself.
+pub fn copies_of<S: Clone, W>(
+    source: S,
+    copies: usize,
+    make: impl Fn(S) -> Result<W, Failure>,
+) -> Result<Vec<W>, Failure> {
+    let mut made = Vec::with_capacity(copies.max(1));
+    for _ in 1..copies {
+        made.push(make(source.clone())?);
+    }
+    made.push(make(source)?);
+    Ok(made)
+}
+
+/// Builds the worlds of a run and steps them to `steps` with its outputs, then finishes
+/// (summary, final CSV, status): alone, split over `mpirun`'s ranks (with the `mpi` feature),
+/// or split over `ranks` threads (each its own copy of the world, as every MPI rank builds its
+/// own). The flags a split run refuses are refused before any world is built.
 pub fn run_world<V: Vector>(
-    world: World<V>,
-    rebuild: &(dyn Fn() -> Result<World<V>, Failure> + Sync),
+    build: impl BuildWorlds<V>,
     ranks: Option<usize>,
     steps: u64,
     outputs: &Outputs,
     run: &Labels,
 ) -> Result<(), Failure> {
-    install_interrupt_handler();
     #[cfg(feature = "mpi")]
     if let Some(mpi) = crate::cluster::mpi::Mpi::current() {
         if mpi.size() > 1 {
@@ -35,8 +55,10 @@ pub fn run_world<V: Vector>(
             if outputs.observe.is_some() {
                 return Err(refuse_split_observe());
             }
+            let world = one_world(build)?;
             crate::cluster::mpi::check_gather_size(world.len(), V::DIM)
                 .map_err(|e| Failure::input(format!("{}: {e}", run.origin)))?;
+            install_interrupt_handler();
             return run_split(world, mpi.transport(), true, steps, outputs, run);
         }
     }
@@ -45,17 +67,27 @@ pub fn run_world<V: Vector>(
             return Err(refuse_split_observe());
         }
         Some(ranks) if ranks > 1 => {
-            return run_thread_ranks(world, rebuild, ranks, steps, outputs, run);
+            let worlds = build(ranks)?;
+            install_interrupt_handler();
+            return run_thread_ranks(worlds, steps, outputs, run);
         }
         _ => {}
     }
-    let mut world = world;
+    let mut world = one_world(build)?;
+    install_interrupt_handler();
     let before = Before::of(&world);
     let progress = progress_bar(steps);
     progress.set_position(world.steps_taken());
     let driven = drive(&mut world, steps, outputs, &progress)?;
     progress.finish_and_clear();
     finish(&world, run, before, &driven)
+}
+
+/// The one world of a run that is not split over threads.
+fn one_world<V: Vector>(build: impl BuildWorlds<V>) -> Result<World<V>, Failure> {
+    build(1)?
+        .pop()
+        .ok_or_else(|| Failure::runtime("no world was built"))
 }
 
 /// `--observe` in a split run: each rank sums the collisional virial of its own contacts, and
@@ -70,18 +102,12 @@ fn refuse_split_observe() -> Failure {
 /// `carom run --ranks N`: the split run of `mpirun -np N`, with the ranks as threads of this
 /// process talking through shared memory. Same decomposition, same messages, same bits.
 fn run_thread_ranks<V: Vector>(
-    world: World<V>,
-    rebuild: &(dyn Fn() -> Result<World<V>, Failure> + Sync),
-    ranks: usize,
+    worlds: Vec<World<V>>,
     steps: u64,
     outputs: &Outputs,
     run: &Labels,
 ) -> Result<(), Failure> {
-    let mut worlds = vec![world];
-    for _ in 1..ranks {
-        worlds.push(rebuild()?);
-    }
-    let transports = carom_engine::cluster::ThreadTransport::group(ranks);
+    let transports = carom_engine::cluster::ThreadTransport::group(worlds.len());
     std::thread::scope(|s| {
         let handles: Vec<_> = worlds
             .into_iter()

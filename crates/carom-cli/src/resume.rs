@@ -1,15 +1,16 @@
 //! `carom resume`: continue a run from its checkpoint, bit for bit, through the same driver as
 //! `carom run`.
 
-use crate::driver::step::{Outputs, Settings};
+use crate::driver::step::Outputs;
 use crate::driver::Labels;
 use crate::failure::Failure;
 use crate::input::{
     apply_overrides, check_distinct, check_output_path, check_ranks, check_steps, set_threads,
 };
-use crate::launch::run_world;
+use crate::launch::{copies_of, run_world};
 use carom_engine::Vector;
 use carom_output::checkpoint::Checkpoint;
+use carom_scene::RunSettings;
 use std::path::{Path, PathBuf};
 
 /// Options of `carom resume`.
@@ -74,6 +75,8 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
         path: shown.clone(),
         source,
     })?;
+    // (the file's bytes are done with: they would stay beside the world for the whole run)
+    drop(bytes);
     if let Some(steps) = args.steps {
         if steps < cp.steps_taken {
             return Err(Failure::input(format!(
@@ -83,7 +86,7 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
             )));
         }
     }
-    let settings: Settings = serde_json::from_str(&cp.settings_json)
+    let settings: RunSettings = serde_json::from_str(&cp.settings_json)
         .map_err(|e| Failure::input(format!("{shown}: damaged run settings: {e}")))?;
     let outputs = Outputs {
         checkpoint: args.checkpoint_to.clone().zip(args.checkpoint_every),
@@ -91,7 +94,7 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
         observe: args.observe.clone().zip(args.every),
         scene_toml: cp.scene_toml.clone(),
         origin: cp.origin.clone(),
-        settings: Settings {
+        settings: RunSettings {
             steps: args.steps.unwrap_or(settings.steps),
             ..settings.clone()
         },
@@ -103,15 +106,15 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
     let scene = crate::input::parse_scene(&cp.scene_toml, &cp.origin)
         .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
     match scene {
-        carom_scene::AnyScene::Two(s) => resume_scene(s, &cp, &settings, &outputs, args),
-        carom_scene::AnyScene::Three(s) => resume_scene(s, &cp, &settings, &outputs, args),
+        carom_scene::AnyScene::Two(s) => resume_scene(s, cp, &settings, &outputs, args),
+        carom_scene::AnyScene::Three(s) => resume_scene(s, cp, &settings, &outputs, args),
     }
 }
 
 fn resume_scene<V: Vector>(
     mut scene: carom_scene::Scene<V>,
-    cp: &Checkpoint,
-    settings: &Settings,
+    cp: Checkpoint,
+    settings: &RunSettings,
     outputs: &Outputs,
     args: &ResumeArgs,
 ) -> Result<(), Failure> {
@@ -130,29 +133,23 @@ fn resume_scene<V: Vector>(
         .particles()
         .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
     let name = scene.name.clone();
-    let rebuild = || {
-        scene
-            .clone()
-            .into_resumed_world(
+    let run = Labels {
+        name: name.as_deref(),
+        origin: &shown,
+        out: args.out.as_deref(),
+    };
+    // (the closure takes the checkpoint: its arrays go once the worlds are built)
+    let build = |copies| {
+        let cp = cp;
+        copies_of(scene, copies, |s| {
+            s.into_resumed_world(
                 cp.steps_taken,
                 cp.storage_order.clone(),
                 cp.contact_impulses(),
                 cp.tally,
             )
             .map_err(|e| Failure::input(format!("{shown}: {e}")))
+        })
     };
-    let world = rebuild()?;
-    let run = Labels {
-        name: name.as_deref(),
-        origin: &shown,
-        out: args.out.as_deref(),
-    };
-    run_world(
-        world,
-        &rebuild,
-        args.ranks,
-        outputs.settings.steps,
-        outputs,
-        &run,
-    )
+    run_world(build, args.ranks, outputs.settings.steps, outputs, &run)
 }

@@ -1,14 +1,15 @@
 //! `carom run` and `carom check`.
 
-use crate::driver::step::{Outputs, Settings};
+use crate::driver::step::Outputs;
 use crate::driver::Labels;
 use crate::failure::Failure;
 use crate::input::{
     apply_overrides, check_cells, check_distinct, check_output_path, check_ranks, check_steps,
     load_scene, set_threads,
 };
-use crate::launch::run_world;
+use crate::launch::{copies_of, run_world};
 use carom_engine::Vector;
+use carom_scene::RunSettings;
 use carom_scene::{AnyScene, Scene};
 use clap::ValueEnum;
 use std::path::{Path, PathBuf};
@@ -151,7 +152,7 @@ fn run_scene<V: Vector>(
         observe: args.observe.clone().zip(args.every),
         scene_toml: text,
         origin: origin.to_string(),
-        settings: Settings {
+        settings: RunSettings {
             steps: scene.steps,
             broadphase: broadphase.map(str::to_string),
             cells: args.cells.clone(),
@@ -160,17 +161,15 @@ fn run_scene<V: Vector>(
     outputs.check()?;
     let name = scene.name.clone();
     let steps = scene.steps;
-    let rebuild = || {
-        scene
-            .clone()
-            .into_world()
-            .map_err(|e| Failure::input(format!("{origin}: {e}")))
-    };
-    let world = rebuild()?;
     let run = Labels {
         name: name.as_deref(),
         origin,
         out: args.out.as_deref(),
     };
-    run_world(world, &rebuild, args.ranks, steps, &outputs, &run)
+    let build = |copies| {
+        copies_of(scene, copies, |s| {
+            (s.into_world()).map_err(|e| Failure::input(format!("{origin}: {e}")))
+        })
+    };
+    run_world(build, args.ranks, steps, &outputs, &run)
 }

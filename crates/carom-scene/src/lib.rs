@@ -8,6 +8,7 @@
 mod error;
 mod fill;
 pub mod machine;
+mod overrides;
 mod placement;
 mod presets;
 mod raw;
@@ -15,6 +16,7 @@ mod screen;
 mod walls;
 
 pub use error::SceneError;
+pub use overrides::{check_cells, OverrideError, RunSettings};
 pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
 
 use carom_engine::glam::{DVec2, DVec3};

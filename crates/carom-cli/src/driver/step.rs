@@ -17,6 +17,7 @@ use carom_output::checkpoint::Checkpoint;
 use carom_output::observables::ObservablesCsv;
 use carom_output::trajectory::CsvTrajectory;
 use carom_output::vtk;
+use carom_scene::RunSettings;
 use indicatif::ProgressBar;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
@@ -64,17 +65,6 @@ impl<V: Vector> Stepper<V> for World<V> {
     }
 }
 
-/// Run settings a checkpoint must carry besides the scene text.
-#[derive(serde::Serialize, serde::Deserialize, Debug, Clone, Default)]
-pub struct Settings {
-    /// Total steps of the run.
-    pub steps: u64,
-    /// `--broadphase` override, if any.
-    pub broadphase: Option<String>,
-    /// `--cells` override, if any.
-    pub cells: Option<Vec<usize>>,
-}
-
 /// Where long-run output goes.
 pub struct Outputs {
     pub checkpoint: Option<(PathBuf, u64)>,
@@ -83,7 +73,7 @@ pub struct Outputs {
     pub observe: Option<(PathBuf, u64)>,
     pub scene_toml: String,
     pub origin: String,
-    pub settings: Settings,
+    pub settings: RunSettings,
 }
 
 impl Outputs {
