@@ -122,6 +122,27 @@ fn default_scene_runs_with_a_summary() {
     assert!(out.stderr.is_empty(), "no progress bar when not a terminal");
 }
 
+/// A particle faster than its radius a step is named in the summary, with how fast; a calm
+/// run has no such line.
+#[test]
+fn a_particle_faster_than_its_radius_a_step_is_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("fast.toml");
+    std::fs::write(
+        &scene,
+        "dimensions = 2\ndt = 0.01\n[[particles]]\nposition = [0.0, 0.0]\n\
+         velocity = [300.0, 0.0]\nradius = 1.0\n",
+    )
+    .unwrap();
+    let out = run_ok(&["run", scene.to_str().unwrap(), "--steps", "5"]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    let line = "moves       in 5 of 5 steps a particle started faster than its radius a step \
+                (at most 3.00 radii, at step 1)";
+    assert!(text.contains(line), "missing {line:?} in:\n{text}");
+    let calm = String::from_utf8(run_ok(&["run", "--steps", "20"]).stdout).unwrap();
+    assert!(!calm.contains("moves"), "{calm}");
+}
+
 #[test]
 fn grid_and_brute_force_write_identical_files() {
     // radii 1 and 3 with 2-unit cells: smaller than the largest diameter

@@ -69,6 +69,13 @@ pub struct StepStats {
     /// the step's own contact candidates, and a pair that a push drove together from beyond
     /// their reach is none of them until the next step finds it: its depth shows here.
     pub found_overlap: f64,
+    /// How far the fastest particle goes in this step at the speed it starts with, in its own
+    /// radii: the largest `|v| dt / r` (0 when everything sleeps, which is at rest). From about
+    /// 1 on (exactly: `(|v| + |g| dt) dt > r`) a particle's contact candidates do not cover its
+    /// move: a pair it closes on from beyond them is found after the move, as the lecture's
+    /// detection finds it, and its depth shows in the next step's
+    /// [`StepStats::found_overlap`].
+    pub fastest_move: f64,
     /// Particles asleep through this step (see [`crate::sleep`]); their contacts are not in
     /// `contacts`.
     pub asleep: usize,

@@ -912,3 +912,25 @@ fn coincident_centres_separate_without_nan_2d() {
 fn coincident_centres_separate_without_nan_3d() {
     coincident::<DVec3>();
 }
+
+/// `StepStats::fastest_move` is the fastest particle's `|v| dt / r` at the step's start: a
+/// disc crossing twice its radius a step reads 2 (its candidates cover one radius of it), and
+/// a world at rest reads 0.
+#[test]
+fn the_fastest_move_is_counted_in_radii() {
+    let mut w = World::<DVec2>::builder()
+        .dt(0.01)
+        .restitution(1.0)
+        .particle(DVec2::new(0.0, 0.0), DVec2::new(100.0, 0.0), 0.5, 1.0)
+        .particle(DVec2::new(0.0, 10.0), DVec2::new(0.0, 20.0), 0.25, 1.0)
+        .build()
+        .unwrap();
+    let stats = w.step();
+    assert!((stats.fastest_move - 2.0).abs() < 1e-12, "{stats:?}");
+    let mut still = World::<DVec2>::builder()
+        .dt(0.01)
+        .particle(DVec2::ZERO, DVec2::ZERO, 0.5, 1.0)
+        .build()
+        .unwrap();
+    assert_eq!(still.step().fastest_move, 0.0);
+}

@@ -124,6 +124,11 @@ pub struct Driven {
     pub worst_overlap: f64,
     /// The last step that hit the velocity sweep cap.
     pub last_capped: Option<u64>,
+    /// Steps in which a particle started faster than a radius a step
+    /// (`StepStats::fastest_move` above 1), and the fastest such move with its step.
+    pub outran_steps: u64,
+    pub fastest_move: f64,
+    pub fastest_move_step: u64,
     /// Particles asleep in the last step, and the step since which that many have been.
     pub asleep_last: usize,
     pub asleep_since: Option<u64>,
@@ -145,6 +150,10 @@ impl Driven {
             .max(stats.found_overlap);
         if stats.capped {
             self.last_capped = Some(step);
+        }
+        self.outran_steps += (stats.fastest_move > 1.0) as u64;
+        if stats.fastest_move > self.fastest_move {
+            (self.fastest_move, self.fastest_move_step) = (stats.fastest_move, step);
         }
         if stats.asleep != self.asleep_last || self.asleep_since.is_none() {
             self.asleep_since = (stats.asleep > 0).then_some(step);

@@ -113,6 +113,16 @@ impl<V: Vector> Summary<'_, V> {
             d.last_overlap * 100.0,
             d.worst_overlap * 100.0
         );
+        if d.outran_steps > 0 {
+            println!(
+                "moves       in {} of {steps} steps a particle started faster than its radius a \
+                 step (at most {:.2} radii, at step {}): a pair it closed on from beyond its \
+                 contact candidates was found after the move, as the lecture's detection finds \
+                 it, and pushed apart then (the overlap at most shows how deep); a smaller dt \
+                 finds such pairs before they meet",
+                d.outran_steps, d.fastest_move, d.fastest_move_step
+            );
+        }
     }
 
     /// Energy and momentum, start against end.

@@ -249,6 +249,7 @@ impl<V: Vector> WorldBuilder<V> {
             tally: self.tally,
             last_overlap: None,
             found_overlap: 0.0,
+            fastest_move: 0.0,
         })
     }
 }

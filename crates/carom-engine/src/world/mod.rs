@@ -138,6 +138,8 @@ pub struct World<V: Vector> {
     last_overlap: Option<f64>,
     /// This step's [`StepStats::found_overlap`].
     found_overlap: f64,
+    /// This step's [`StepStats::fastest_move`].
+    fastest_move: f64,
 }
 
 impl<V: Vector> std::fmt::Debug for World<V> {

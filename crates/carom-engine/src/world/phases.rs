@@ -50,6 +50,7 @@ impl<V: Vector> Phases for World<V> {
             self.plane_contacts.clear();
             self.plane_rows.clear();
             self.found_overlap = 0.0;
+            self.fastest_move = 0.0;
             return;
         }
         self.find_pairs(parallel);
@@ -219,6 +220,7 @@ impl<V: Vector> Phases for World<V> {
             capped: solve.capped,
             max_overlap,
             found_overlap: self.found_overlap,
+            fastest_move: self.fastest_move,
         }
     }
 }
@@ -233,33 +235,44 @@ impl<V: Vector> World<V> {
         let p = &self.store;
         self.reach.resize(p.len(), 0.0);
         self.speed.resize(if raises { p.len() } else { 0 }, 0.0);
+        // (each particle's reach, its speed and its move in radii: see `StepStats::fastest_move`)
         let one = |v: &V, r: f64| {
             let speed = v.length_squared().sqrt();
-            (solver::reach(r, speed + fall, dt), speed)
+            let moves = speed * dt / r;
+            (solver::reach(r, speed + fall, dt), speed, moves)
         };
         let particles = || p.velocity.par_iter().zip(p.radius.par_iter());
         // (the speeds, when the search raises reaches, in the same pass: a square root per
         // particle instead of one per partner the search finds, through a closure)
-        if raises {
+        self.fastest_move = if raises {
             let fill = |((out, speed), (v, &r)): ((&mut f64, &mut f64), (&V, &f64))| {
-                (*out, *speed) = one(v, r);
+                let moves;
+                (*out, *speed, moves) = one(v, r);
+                moves
             };
             if parallel {
                 let outs = self.reach.par_iter_mut().zip(self.speed.par_iter_mut());
-                outs.zip(particles()).for_each(fill);
+                outs.zip(particles()).map(fill).reduce(|| 0.0, f64::max)
             } else {
                 let outs = self.reach.iter_mut().zip(self.speed.iter_mut());
-                outs.zip(p.velocity.iter().zip(&p.radius)).for_each(fill);
+                let each = outs.zip(p.velocity.iter().zip(&p.radius)).map(fill);
+                each.fold(0.0, f64::max)
             }
         } else {
-            let fill = |(out, (v, &r)): (&mut f64, (&V, &f64))| *out = one(v, r).0;
+            let fill = |(out, (v, &r)): (&mut f64, (&V, &f64))| {
+                let moves;
+                (*out, _, moves) = one(v, r);
+                moves
+            };
             if parallel {
-                self.reach.par_iter_mut().zip(particles()).for_each(fill);
+                let each = self.reach.par_iter_mut().zip(particles()).map(fill);
+                each.reduce(|| 0.0, f64::max)
             } else {
                 let outs = self.reach.iter_mut();
-                outs.zip(p.velocity.iter().zip(&p.radius)).for_each(fill);
+                let each = outs.zip(p.velocity.iter().zip(&p.radius)).map(fill);
+                each.fold(0.0, f64::max)
             }
-        }
+        };
         let (position, radius) = (&p.position, &p.radius);
         let scratch = &mut self.sorter.scratch;
         if raises {

@@ -157,10 +157,12 @@ impl<V: Vector> Subdomain<V> {
         let dt = self.config.dt;
         let fall = self.config.gravity.length_squared().sqrt() * dt;
         self.reach.clear();
+        self.fastest_move = 0.0;
         for s in 0..own {
             let (v, r) = (self.window.velocity[s], self.window.radius[s]);
-            self.reach
-                .push(solver::reach(r, v.length_squared().sqrt() + fall, dt));
+            let speed = v.length_squared().sqrt();
+            self.reach.push(solver::reach(r, speed + fall, dt));
+            self.fastest_move = self.fastest_move.max(speed * dt / r);
         }
         self.search_with_ghosts(link);
         // (as a world does: see `solver::raise_to_partners`; a ghost's speed came with it, and

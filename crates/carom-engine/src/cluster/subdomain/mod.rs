@@ -77,6 +77,8 @@ pub struct Subdomain<V: Vector> {
     rows: Rows<V>,
     /// This step's [`StepStats::found_overlap`] among the rows this rank owns.
     found_overlap: f64,
+    /// This step's [`StepStats::fastest_move`] among the own particles.
+    fastest_move: f64,
     plane_contacts: Vec<PlaneContact>,
     plane_rows: Vec<PlaneRow<V>>,
     /// Remembered impulses of the contacts this rank owns (relative slots), and the id of each
@@ -279,6 +281,7 @@ impl<V: Vector> Subdomain<V> {
             partners: Vec::new(),
             rows: Default::default(),
             found_overlap: 0.0,
+            fastest_move: 0.0,
             plane_contacts: Vec::new(),
             plane_rows: Vec::new(),
             memory: share.memory,

@@ -200,6 +200,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
             capped: solve.capped,
             max_overlap,
             found_overlap: self.link.largest(s.found_overlap),
+            fastest_move: self.link.largest(s.fastest_move),
         }
     }
 }
