@@ -268,6 +268,16 @@ struct Job<'a> {
     origin: String,
 }
 
+/// The frames a render wrote, for its report.
+#[derive(Clone, Copy)]
+struct Frames {
+    plan: Plan,
+    /// Simulated time between frames.
+    seconds_apart: f64,
+    /// A GIF frame's delay (hundredths of a second).
+    delay_cs: u16,
+}
+
 /// Time spent, for the summary.
 #[derive(Default)]
 struct Timing {
@@ -372,6 +382,23 @@ impl Job<'_> {
         }
         progress.finish_and_clear();
         let total = started.elapsed().as_secs_f64();
+        let frames = Frames {
+            plan,
+            seconds_apart: frame_seconds,
+            delay_cs,
+        };
+        self.report(&frames, world.time(), &timing, total);
+        Ok(())
+    }
+
+    /// What the render made: the scene, the frame or frames, where the time went, the file.
+    fn report(&self, frames: &Frames, time: f64, timing: &Timing, total: f64) {
+        let Frames {
+            plan,
+            seconds_apart: frame_seconds,
+            delay_cs,
+        } = *frames;
+        let out = &self.args.out;
         let timing_line = format!(
             "{:.2} s: {:.2} s simulating, {:.2} s rendering and encoding ({:.1} ms per frame, {} threads)",
             total,
@@ -384,10 +411,7 @@ impl Job<'_> {
         if plan.frames == 1 {
             println!(
                 "frame       step {} (t = {}), {}x{}",
-                plan.first,
-                world.time(),
-                self.size.0,
-                self.size.1
+                plan.first, time, self.size.0, self.size.1
             );
         } else {
             let shown = match self.format {
@@ -407,7 +431,6 @@ impl Job<'_> {
         }
         println!("time        {timing_line}");
         println!("output      {}", out.display());
-        Ok(())
     }
 
     fn scene_name(&self) -> String {

@@ -306,39 +306,10 @@ impl Checkpoint {
         let velocities = floats(n * d)?;
         let radii = floats(n)?;
         let masses = floats(n)?;
-        let mut impulses = || -> Result<Vec<(u32, u32, f64)>, Damage> {
-            let m = r.u64()? as usize;
-            if m.checked_mul(16).is_none_or(|bytes| bytes > r.left()) {
-                return Err(Damage::ImpulseCount);
-            }
-            (0..m).map(|_| Ok((r.u32()?, r.u32()?, r.f64()?))).collect()
-        };
-        let pair_impulses = impulses()?;
-        let plane_impulses = impulses()?;
-        let count = r.u64()? as usize;
-        if count != 0 && count != n {
-            return Err(Damage::RestTimes {
-                count,
-                particles: n,
-            }
-            .into());
-        }
-        let rest = (0..count).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
-        let tally = if version >= 4 {
-            Tally {
-                observing: match r.u64()? {
-                    0 => false,
-                    1 => true,
-                    other => return Err(Damage::ObservingFlag(other).into()),
-                },
-                collisions: r.u64()?,
-                virial: r.f64()?,
-                thermal: r.f64()?,
-                interval: r.f64()?,
-            }
-        } else {
-            Tally::default()
-        };
+        let pair_impulses = r.impulses()?;
+        let plane_impulses = r.impulses()?;
+        let rest = r.rest_times(n)?;
+        let tally = r.tally(version)?;
         if r.left() != 0 {
             return Err(Damage::LeftOver(r.left()).into());
         }
@@ -421,6 +392,44 @@ impl<'a> Reader<'a> {
             return Err(Damage::TruncatedText);
         }
         String::from_utf8(self.take(len)?.to_vec()).map_err(|_| Damage::NotUtf8)
+    }
+
+    /// Remembered impulses: a count, then `(a, b, impulse)` each.
+    fn impulses(&mut self) -> Result<Vec<(u32, u32, f64)>, Damage> {
+        let m = self.u64()? as usize;
+        if m.checked_mul(16).is_none_or(|bytes| bytes > self.left()) {
+            return Err(Damage::ImpulseCount);
+        }
+        (0..m)
+            .map(|_| Ok((self.u32()?, self.u32()?, self.f64()?)))
+            .collect()
+    }
+
+    /// Rest times: none, or one for each of the `particles`.
+    fn rest_times(&mut self, particles: usize) -> Result<Vec<f64>, Damage> {
+        let count = self.u64()? as usize;
+        if count != 0 && count != particles {
+            return Err(Damage::RestTimes { count, particles });
+        }
+        (0..count).map(|_| self.f64()).collect()
+    }
+
+    /// The observables' running sums: written from format version 4 on, none before.
+    fn tally(&mut self, version: u32) -> Result<Tally, Damage> {
+        if version < 4 {
+            return Ok(Tally::default());
+        }
+        Ok(Tally {
+            observing: match self.u64()? {
+                0 => false,
+                1 => true,
+                other => return Err(Damage::ObservingFlag(other)),
+            },
+            collisions: self.u64()?,
+            virial: self.f64()?,
+            thermal: self.f64()?,
+            interval: self.f64()?,
+        })
     }
 }
 

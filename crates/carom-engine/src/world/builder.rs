@@ -169,28 +169,11 @@ impl<V: Vector> WorldBuilder<V> {
         }
         let mut config = self.config;
         if let Some(axes) = &self.periodic {
-            if axes.len() != V::DIM {
-                return Err(EngineError::PeriodicAxes {
-                    got: axes.len(),
-                    dimensions: V::DIM,
-                });
-            }
-            config.periodic = [false; 3];
-            config.periodic[..V::DIM].copy_from_slice(axes);
+            set_periodic(&mut config, axes)?;
         }
         check_settings(&config)?;
         let periodic = check_periodic(&config, &self.particles)?;
-        let mut planes = self.planes;
-        if let Some(k) = self.walls {
-            let domain = config.domain.ok_or(EngineError::EmptyDomain)?;
-            // (2 walls per axis, in axis order; a periodic axis has none)
-            let walls = domain.walls(k)?.into_iter().enumerate();
-            planes.extend(
-                walls
-                    .filter(|(w, _)| !config.periodic[w / 2])
-                    .map(|(_, p)| p),
-            );
-        }
+        let planes = with_walls(self.planes, self.walls, &config)?;
         let broad_phase = new_broad_phase(&config)?;
         let mut particles = self.particles;
         if let Some(p) = &periodic {
@@ -252,6 +235,38 @@ impl<V: Vector> WorldBuilder<V> {
             fastest_move: 0.0,
         })
     }
+}
+
+/// Makes `axes` (one flag per axis) `config`'s periodic axes.
+fn set_periodic<V: Vector>(config: &mut WorldConfig<V>, axes: &[bool]) -> Result<(), EngineError> {
+    if axes.len() != V::DIM {
+        return Err(EngineError::PeriodicAxes {
+            got: axes.len(),
+            dimensions: V::DIM,
+        });
+    }
+    config.periodic = [false; 3];
+    config.periodic[..V::DIM].copy_from_slice(axes);
+    Ok(())
+}
+
+/// `planes`, then the domain's walls with restitution `walls` when asked: 2 per axis, in axis
+/// order, none on a periodic axis.
+fn with_walls<V: Vector>(
+    mut planes: Vec<Plane<V>>,
+    walls: Option<f64>,
+    config: &WorldConfig<V>,
+) -> Result<Vec<Plane<V>>, EngineError> {
+    if let Some(k) = walls {
+        let domain = config.domain.ok_or(EngineError::EmptyDomain)?;
+        let walls = domain.walls(k)?.into_iter().enumerate();
+        planes.extend(
+            walls
+                .filter(|(w, _)| !config.periodic[w / 2])
+                .map(|(_, p)| p),
+        );
+    }
+    Ok(planes)
 }
 
 /// The checks of [`WorldBuilder::build`] on the settings alone.
