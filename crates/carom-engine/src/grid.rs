@@ -270,8 +270,11 @@ impl<V: Vector> Grid<V> {
     }
 
     /// Lays the grid out over this step's particles (cells about one largest reach across)
-    /// and bins them; returns the largest of `radii`, which every search's reach adds.
+    /// and bins them, for a search in its own cells (not the hash's: see
+    /// [`Grid::too_many_outside`]); returns the largest of `radii`, which every search's reach
+    /// adds.
     fn bin(&mut self, positions: &[V], radii: &[f64]) -> f64 {
+        self.escaped = false;
         let max_radius = largest(radii);
         self.plan_layout(positions, max_radius);
         self.build_buckets(positions);
@@ -409,7 +412,6 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
             self.escaped = true;
             return self.overflow.find_pairs(positions, radii, pairs);
         }
-        self.escaped = false;
         let max_radius = self.bin(positions, radii);
         let layout = self.layout;
         let (cell_start, ids) = (&self.cell_start, &self.ids);

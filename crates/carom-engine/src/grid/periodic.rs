@@ -52,7 +52,6 @@ impl<V: Vector> Grid<V> {
         radii: &[f64],
         pairs: &mut Vec<Pair>,
     ) {
-        self.escaped = false;
         let max_radius = self.bin(positions, radii);
         let layout = self.layout;
         let (cell_start, ids) = (&self.cell_start, &self.ids);
