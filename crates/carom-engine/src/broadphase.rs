@@ -34,6 +34,22 @@ pub trait BroadPhase<V: Vector>: Send + Sync {
         self.find_pairs(positions, radii, pairs);
     }
 
+    /// [`BroadPhase::find_pairs_in`], keeping only the pairs `keep` holds for (a function of
+    /// the pair alone): the same pairs as the search with a retain after it, which is the
+    /// default. `kept` is scratch for that retain.
+    fn find_pairs_kept_in(
+        &mut self,
+        positions: &[V],
+        radii: &[f64],
+        keep: &PairFilter<'_>,
+        pairs: &mut Vec<Pair>,
+        scratch: &mut CellScratch,
+        kept: &mut Vec<usize>,
+    ) {
+        self.find_pairs_in(positions, radii, pairs, scratch);
+        retain_pairs(pairs, kept, positions.len() >= PARALLEL_SEARCH_MIN, keep);
+    }
+
     /// [`BroadPhase::find_pairs_in`] with each radius raised to what its particle would have
     /// at the speed of its fastest partner (see `solver::raise_to_partners` for why): makes
     /// `raised[i]` the largest of `radii[i]` and `raising.radius_at(i, speed(j))` over every
@@ -59,6 +75,9 @@ pub trait BroadPhase<V: Vector>: Send + Sync {
         None
     }
 }
+
+/// Which pairs a search keeps (see [`BroadPhase::find_pairs_kept_in`]).
+pub type PairFilter<'a> = dyn Fn(Pair) -> bool + Sync + 'a;
 
 /// Working arrays that a search by cells and the spatial sort of a world's storage both need at
 /// different times of a step, so one set serves both (see [`BroadPhase::find_pairs_in`]): the
@@ -213,6 +232,57 @@ pub(crate) fn gather<T: Copy>(chunks: &[Vec<T>], into: &mut Vec<T>) {
     keep_headroom(into);
 }
 
+/// Pairs per parallel task in [`retain_pairs`].
+const RETAIN_CHUNK: usize = 16_384;
+
+/// Keeps the pairs for which `keep` holds, in order, on the thread pool when `parallel`: each
+/// fixed chunk is compacted in place, then the chunks are moved together, so the result is
+/// the same for any number of threads. `kept` is scratch (one count per chunk), kept by the
+/// caller so that a step does not allocate.
+pub(crate) fn retain_pairs(
+    pairs: &mut Vec<Pair>,
+    kept: &mut Vec<usize>,
+    parallel: bool,
+    keep: &PairFilter<'_>,
+) {
+    if !parallel {
+        pairs.retain(|&pair| keep(pair));
+        return;
+    }
+    let compact = |(chunk, count): (&mut [Pair], &mut usize)| {
+        let mut to = 0;
+        for k in 0..chunk.len() {
+            let pair = chunk[k];
+            chunk[to] = pair;
+            to += keep(pair) as usize;
+        }
+        *count = to;
+    };
+    kept.resize(pairs.len().div_ceil(RETAIN_CHUNK), 0);
+    keep_headroom(kept);
+    (pairs.par_chunks_mut(RETAIN_CHUNK).zip(kept.par_iter_mut())).for_each(compact);
+    let mut to = 0;
+    for (c, &count) in kept.iter().enumerate() {
+        let from = c * RETAIN_CHUNK;
+        pairs.copy_within(from..from + count, to);
+        to += count;
+    }
+    pairs.truncate(to);
+}
+
+/// Keeps the pairs of `out[first..]` that `keep` holds for, in order, without branching on
+/// the test (as [`push_if`]).
+#[inline]
+pub(crate) fn keep_tail(out: &mut Vec<Pair>, first: usize, keep: &PairFilter<'_>) {
+    let mut to = first;
+    for k in first..out.len() {
+        let pair = out[k];
+        out[to] = pair;
+        to += keep(pair) as usize;
+    }
+    out.truncate(to);
+}
+
 /// Pushes `pair` onto `out` when `keep`, without branching on `keep`: a search's test holds
 /// for about one candidate in ten, unpredictably, and the branch cost a fifth of the grid's
 /// search of the bench's 10^6-disc gas (32 ms against 26).
@@ -222,11 +292,45 @@ pub(crate) fn push_if(out: &mut Vec<Pair>, pair: Pair, keep: bool) {
     out.truncate(out.len() - 1 + keep as usize);
 }
 
-/// Grows `v`'s capacity to half again its length once it is three quarters full: contact
-/// counts fluctuate from step to step, and a buffer sized to the largest count seen so far
-/// would reallocate at every new maximum, long after warm-up.
+/// Grows `v`'s capacity to half again its length (and at least [`SPARE`] more) once it is
+/// three quarters full: contact counts fluctuate from step to step, and a buffer sized to the
+/// largest count seen so far would reallocate at every new maximum, long after warm-up. (The
+/// spare is for short buffers, whose counts fluctuate most: a chunk of a dilute gas keeps a
+/// few dozen pairs.)
 pub(crate) fn keep_headroom<T>(v: &mut Vec<T>) {
-    if v.len() * 4 > v.capacity() * 3 {
-        v.reserve(v.len() / 2);
+    if v.len() * 4 > v.capacity() * 3 || v.capacity() - v.len() < SPARE {
+        v.reserve(v.len() / 2 + SPARE);
+    }
+}
+
+/// The least spare room [`keep_headroom`] leaves, in elements.
+const SPARE: usize = 64;
+
+#[cfg(test)]
+mod tests {
+    use super::{keep_tail, retain_pairs, Pair};
+
+    /// Chunked in parallel or on one thread, the same pairs in the same order as `retain`.
+    #[test]
+    fn retaining_pairs_in_chunks_keeps_the_order() {
+        let mut next = crate::testing::uniform(3);
+        let all: Vec<Pair> = (0..100_000u32)
+            .map(|i| (i, i + 1 + (next() * 9.0) as u32))
+            .collect();
+        let keep = |(i, j): Pair| (i * 7 + j) % 5 < 2;
+        let expected: Vec<Pair> = all.iter().copied().filter(|&p| keep(p)).collect();
+        let mut kept = Vec::new();
+        for parallel in [false, true] {
+            let mut pairs = all.clone();
+            retain_pairs(&mut pairs, &mut kept, parallel, &keep);
+            assert_eq!(pairs, expected, "parallel {parallel}");
+        }
+        let mut out = all[..1000].to_vec();
+        keep_tail(&mut out, 400, &keep);
+        let tail = all[400..1000].iter().copied().filter(|&p| keep(p));
+        assert_eq!(
+            out,
+            all[..400].iter().copied().chain(tail).collect::<Vec<_>>()
+        );
     }
 }

@@ -21,8 +21,8 @@ mod periodic;
 mod raised;
 
 use crate::broadphase::{
-    collect_pairs, push_if, search_raise_search, BroadPhase, CellScratch, Pair, Raising,
-    PARALLEL_MIN,
+    collect_pairs, keep_tail, push_if, retain_pairs, search_raise_search, BroadPhase, CellScratch,
+    Pair, PairFilter, Raising, PARALLEL_MIN, PARALLEL_SEARCH_MIN,
 };
 use crate::bucket::{counting_sort, counting_sort_parallel};
 use crate::domain::Aabb;
@@ -400,10 +400,37 @@ pub(crate) fn bounding_box<V: Vector>(positions: &[V]) -> Aabb<V> {
     }
 }
 
+impl<V: Vector> Grid<V> {
+    /// The search of [`BroadPhase::find_pairs`] in the domain's cells, keeping only the pairs
+    /// `keep` holds for, if any: each particle's pairs are tested as soon as they are found,
+    /// while they are in cache, and never take room in `pairs` or the chunks' buffers.
+    fn search(
+        &mut self,
+        positions: &[V],
+        radii: &[f64],
+        keep: Option<&PairFilter<'_>>,
+        pairs: &mut Vec<Pair>,
+    ) {
+        let max_radius = self.bin(positions, radii);
+        let layout = self.layout;
+        let (cell_start, ids) = (&self.cell_start, &self.ids);
+        collect_pairs(positions.len(), &mut self.buffers, pairs, |i, out| {
+            let (pi, ri, first) = (positions[i], radii[i], out.len());
+            for_each_near(&layout, cell_start, ids, pi, ri + max_radius, |j| {
+                let found = (j > i) & is_overlapping(pi, positions[j], ri, radii[j]);
+                push_if(out, (i as u32, j as u32), found);
+            });
+            if let Some(keep) = keep {
+                keep_tail(out, first, keep);
+            }
+        });
+    }
+}
+
 impl<V: Vector> BroadPhase<V> for Grid<V> {
     fn find_pairs(&mut self, positions: &[V], radii: &[f64], pairs: &mut Vec<Pair>) {
         if let Some(periodic) = self.periodic {
-            return self.find_periodic_pairs(&periodic, positions, radii, pairs);
+            return self.find_periodic_pairs(&periodic, positions, radii, None, pairs);
         }
         // Particles that left the domain all land in its border cells; if many did, those
         // cells would turn the search quadratic. The unbounded hash finds exactly the same
@@ -412,16 +439,32 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
             self.escaped = true;
             return self.overflow.find_pairs(positions, radii, pairs);
         }
-        let max_radius = self.bin(positions, radii);
-        let layout = self.layout;
-        let (cell_start, ids) = (&self.cell_start, &self.ids);
-        collect_pairs(positions.len(), &mut self.buffers, pairs, |i, out| {
-            let (pi, ri) = (positions[i], radii[i]);
-            for_each_near(&layout, cell_start, ids, pi, ri + max_radius, |j| {
-                let found = (j > i) & is_overlapping(pi, positions[j], ri, radii[j]);
-                push_if(out, (i as u32, j as u32), found);
-            });
-        });
+        self.search(positions, radii, None, pairs);
+    }
+
+    fn find_pairs_kept_in(
+        &mut self,
+        positions: &[V],
+        radii: &[f64],
+        keep: &PairFilter<'_>,
+        pairs: &mut Vec<Pair>,
+        scratch: &mut CellScratch,
+        kept: &mut Vec<usize>,
+    ) {
+        // (the hash, for many particles outside the domain as in `find_pairs`, searches and
+        // then keeps)
+        if self.periodic.is_none() && self.too_many_outside(positions) {
+            self.find_pairs_in(positions, radii, pairs, scratch);
+            return retain_pairs(pairs, kept, positions.len() >= PARALLEL_SEARCH_MIN, keep);
+        }
+        self.lend(scratch);
+        match self.periodic {
+            Some(periodic) => {
+                self.find_periodic_pairs(&periodic, positions, radii, Some(keep), pairs)
+            }
+            None => self.search(positions, radii, Some(keep), pairs),
+        }
+        self.lend(scratch);
     }
 
     fn find_pairs_in(

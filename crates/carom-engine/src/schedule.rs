@@ -215,6 +215,7 @@ impl Blocks {
                 }
             }
         }
+        crate::broadphase::keep_headroom(&mut self.leftovers);
     }
 
     /// Indexes the contacts `pairs` (those of the last [`Blocks::plan`]) by particle, so that

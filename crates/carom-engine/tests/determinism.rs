@@ -346,6 +346,24 @@ fn golden_hash_elastic_2d() {
     assert_eq!(w.state_hash(), GOLDEN, "got {:#018x}", w.state_hash());
 }
 
+/// See [`golden_hash_2d`]: the same bodies as a gas, without gravity, k = 1 and elastic walls:
+/// the lecture's step with the candidates that close in (see `solver::candidates_close_in`).
+#[test]
+fn golden_hash_gas_2d() {
+    const GOLDEN: u64 = 0x3728_2b74_82bb_71e4;
+    let bodies = mixed_bodies::<DVec2>(400, 40.0, 6.0, 2024);
+    let b = World::<DVec2>::builder()
+        .dt(0.005)
+        .restitution(1.0)
+        .domain(Aabb::new(DVec2::splat(-40.0), DVec2::splat(40.0)).unwrap())
+        .walls(1.0);
+    let mut w = with_bodies(b, &bodies).build().unwrap();
+    for _ in 0..200 {
+        w.step();
+    }
+    assert_eq!(w.state_hash(), GOLDEN, "got {:#018x}", w.state_hash());
+}
+
 // ---------------------------------------------------------------------------------------------
 // Restarting from a snapshot
 // ---------------------------------------------------------------------------------------------

@@ -2,7 +2,7 @@
 //! particle wrap around the periodic axes, and pairs are tested at the minimum image.
 
 use super::{Grid, GridLayout};
-use crate::broadphase::{collect_pairs, Pair};
+use crate::broadphase::{collect_pairs, keep_tail, Pair, PairFilter};
 use crate::grid::widened_reach;
 use crate::periodic::Periodic;
 use crate::response::is_overlapping;
@@ -43,20 +43,22 @@ impl GridLayout {
 }
 
 impl<V: Vector> Grid<V> {
-    /// [`BroadPhase::find_pairs`] with periodic axes: the positions lie in the domain on those
-    /// axes (the world wraps them), so no search goes to the hash; other axes clamp as ever.
+    /// [`BroadPhase::find_pairs`] with periodic axes, keeping only the pairs `keep` holds for,
+    /// if any (as [`Grid::search`]): the positions lie in the domain on those axes (the world
+    /// wraps them), so no search goes to the hash; other axes clamp as ever.
     pub(super) fn find_periodic_pairs(
         &mut self,
         periodic: &Periodic,
         positions: &[V],
         radii: &[f64],
+        keep: Option<&PairFilter<'_>>,
         pairs: &mut Vec<Pair>,
     ) {
         let max_radius = self.bin(positions, radii);
         let layout = self.layout;
         let (cell_start, ids) = (&self.cell_start, &self.ids);
         collect_pairs(positions.len(), &mut self.buffers, pairs, |i, out| {
-            let (pi, ri) = (positions[i], radii[i]);
+            let (pi, ri, first) = (positions[i], radii[i], out.len());
             let mut runs: [Runs; 3] = [([(0, 0); 2], 1); 3];
             for (a, r) in runs.iter_mut().enumerate().take(V::DIM) {
                 let reach = ri + max_radius;
@@ -88,6 +90,9 @@ impl<V: Vector> Grid<V> {
                         }
                     }
                 }
+            }
+            if let Some(keep) = keep {
+                keep_tail(out, first, keep);
             }
         });
     }

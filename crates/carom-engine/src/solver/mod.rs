@@ -58,5 +58,7 @@ pub(crate) use rows::{
     deepest_placed, moving_mass, prepare_plane_rows, prepare_rows, tally, Contacts, Moving,
     PlaneRow, Row, RowRecord, Rows, RowsMut, WorkList,
 };
-pub(crate) use settings::{plane_reach, raise_to_partners, reach, reach_covers_pushes};
+pub(crate) use settings::{
+    candidates_close_in, close_in_lines, plane_reach, raise_to_partners, reach, reach_covers_pushes,
+};
 pub(crate) use velocity::integrate;

@@ -211,6 +211,7 @@ impl<V: Vector> WorldBuilder<V> {
             raised: Vec::new(),
             speed: Vec::new(),
             pairs: Vec::new(),
+            pairs_kept: Vec::new(),
             rows: Rows::with_capacity(n),
             plane_contacts: Vec::new(),
             plane_rows: Vec::new(),

@@ -99,8 +99,12 @@ pub struct World<V: Vector> {
     /// Each slot's speed this step, `|v|`, when the search raises reaches (see
     /// [`crate::Raising::speed`]); empty otherwise.
     speed: Vec<f64>,
-    /// This step's contact candidates (pairs within reach), as storage slots, sorted.
+    /// This step's contact candidates (pairs within reach; in the lecture's step, those of
+    /// them that close in: see [`crate::solver::candidates_close_in`]), as storage slots,
+    /// sorted.
     pairs: Vec<Pair>,
+    /// Scratch for [`crate::broadphase::retain_pairs`].
+    pairs_kept: Vec<usize>,
     /// The solver's data for each pair.
     rows: Rows<V>,
     /// This step's particles within reach of a plane, sorted.

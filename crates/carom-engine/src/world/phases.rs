@@ -1,7 +1,7 @@
 //! One world's part in each phase of a step (see [`crate::step`]).
 
 use super::*;
-use crate::broadphase::{gather, keep_headroom, Raising};
+use crate::broadphase::{gather, keep_headroom, Pair, Raising};
 use crate::diagnostics::StepStats;
 use crate::frontier::{self, Stamps};
 use crate::memory::Memory;
@@ -229,8 +229,8 @@ impl<V: Vector> World<V> {
     /// This step's pairs within reach (see [`solver::reach`]), the reaches raised to the
     /// partners' speeds when contacts can rest (see [`solver::raise_to_partners`]).
     fn find_pairs(&mut self, parallel: bool) {
-        let dt = self.config.dt;
-        let fall = self.config.gravity.length_squared().sqrt() * dt;
+        let (dt, gravity) = (self.config.dt, self.config.gravity);
+        let fall = gravity.length_squared().sqrt() * dt;
         let raises = solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes);
         let p = &self.store;
         self.reach.resize(p.len(), 0.0);
@@ -290,6 +290,24 @@ impl<V: Vector> World<V> {
                 scratch,
             );
             std::mem::swap(&mut self.reach, &mut self.raised);
+        } else if solver::candidates_close_in(&self.config.solver_settings(), &self.planes, gravity)
+        {
+            let (periodic, velocity) = (self.periodic, &p.velocity);
+            let close_in = |(i, j): Pair| {
+                let (i, j) = (i as usize, j as usize);
+                let (xi, xj) = (position[i], position[j]);
+                let shift = periodic.map_or(V::ZERO, |q| q.shift(xi, xj));
+                let (dx, dv) = (xi - (xj + shift), velocity[i] - velocity[j]);
+                solver::close_in_lines(dx, dv, radius[i] + radius[j], dt)
+            };
+            (self.broad_phase).find_pairs_kept_in(
+                position,
+                &self.reach,
+                &close_in,
+                &mut self.pairs,
+                scratch,
+                &mut self.pairs_kept,
+            );
         } else {
             (self.broad_phase).find_pairs_in(position, &self.reach, &mut self.pairs, scratch);
         }

@@ -84,18 +84,17 @@ impl<V: Vector> Subdomain<V> {
                         .f64(self.reach[s])
                         .f64(self.window.radius[s])
                         .f64(self.window.mass[s])
-                        .f64(self.window.velocity[s].length_squared().sqrt());
+                        .vector(self.window.velocity[s]);
                 }
             }
         }
         let search = &mut self.search;
         search.clear();
         for s in 0..own {
-            let v = self.window.velocity[s];
             search.push(
                 self.window.position[s],
                 [self.reach[s], self.window.radius[s], self.window.mass[s]],
-                v.length_squared().sqrt(),
+                self.window.velocity[s],
                 self.ids[s],
             );
         }
@@ -105,7 +104,7 @@ impl<V: Vector> Subdomain<V> {
                 let (slot, id) = (r.u32(), r.u32());
                 let (x, reach, radius, mass) = (r.vector(), r.f64(), r.f64(), r.f64());
                 search.ghost_slot.push(slot);
-                search.push(x, [reach, radius, mass], r.f64(), id);
+                search.push(x, [reach, radius, mass], r.vector(), id);
             }
         }
         self.broad_phase
@@ -165,11 +164,12 @@ impl<V: Vector> Subdomain<V> {
             self.fastest_move = self.fastest_move.max(speed * dt / r);
         }
         self.search_with_ghosts(link);
-        // (as a world does: see `solver::raise_to_partners`; a ghost's speed came with it, and
-        // every rank searches again when any raised a reach)
-        if solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes) {
+        // (as a world does: see `solver::raise_to_partners`; a ghost's velocity came with it,
+        // and every rank searches again when any raised a reach)
+        let settings = self.config.solver_settings();
+        if solver::reach_covers_pushes(&settings, &self.planes) {
             let search = &self.search;
-            let speed = |k: usize| search.speed[k];
+            let speed = |k: usize| search.velocity[k].length_squared().sqrt();
             let (reach, radius, found) = (&mut self.reach, &search.radius, &self.found);
             let grew =
                 solver::raise_to_partners(reach, radius, found, speed, |k| k < own, fall, dt);
@@ -179,9 +179,19 @@ impl<V: Vector> Subdomain<V> {
         }
         let search = &self.search;
         let first = self.first_slot;
+        // (as a world does: see `solver::candidates_close_in`)
+        let close_in = solver::candidates_close_in(&settings, &self.planes, self.config.gravity);
         self.candidates.clear();
         for &(a, b) in &self.found {
             let (a, b) = (a as usize, b as usize);
+            let (dx, dv) = (
+                search.position[a] - search.position[b],
+                search.velocity[a] - search.velocity[b],
+            );
+            let sum_radii = search.radius[a] + search.radius[b];
+            if close_in && !solver::close_in_lines(dx, dv, sum_radii, dt) {
+                continue;
+            }
             let (sa, sb) = (search.slot(a, own, first), search.slot(b, own, first));
             let ((i, ki), (j, kj)) = if sa < sb {
                 ((sa, a), (sb, b))

@@ -120,8 +120,8 @@ struct Search<V> {
     radius: Vec<f64>,
     mass: Vec<f64>,
     id: Vec<u32>,
-    /// `|v|` of each (length / time).
-    speed: Vec<f64>,
+    /// The velocity of each.
+    velocity: Vec<V>,
     /// Global slot of each ghost.
     ghost_slot: Vec<u32>,
     /// (id, search index), sorted, for placing records after a migration.
@@ -135,17 +135,17 @@ impl<V: Vector> Search<V> {
         self.radius.clear();
         self.mass.clear();
         self.id.clear();
-        self.speed.clear();
+        self.velocity.clear();
         self.ghost_slot.clear();
     }
 
-    /// Adds a particle at `x` with `[reach, radius, mass]`, moving at `speed`.
-    fn push(&mut self, x: V, [reach, radius, mass]: [f64; 3], speed: f64, id: u32) {
+    /// Adds a particle at `x` with `[reach, radius, mass]`, moving at `velocity`.
+    fn push(&mut self, x: V, [reach, radius, mass]: [f64; 3], velocity: V, id: u32) {
         self.position.push(x);
         self.reach.push(reach);
         self.radius.push(radius);
         self.mass.push(mass);
-        self.speed.push(speed);
+        self.velocity.push(velocity);
         self.id.push(id);
     }
 
