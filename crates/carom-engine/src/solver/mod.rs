@@ -59,6 +59,7 @@ pub(crate) use rows::{
     PlaneRow, Row, RowRecord, Rows, RowsMut, WorkList,
 };
 pub(crate) use settings::{
-    candidates_close_in, close_in_lines, plane_reach, raise_to_partners, reach, reach_covers_pushes,
+    candidates_close_in, close_in_lines, may_turn, plane_reach, raise_to_partners, reach,
+    reach_covers_pushes,
 };
 pub(crate) use velocity::integrate;

@@ -290,15 +290,18 @@ impl<V: Vector> World<V> {
                 scratch,
             );
             std::mem::swap(&mut self.reach, &mut self.raised);
-        } else if solver::candidates_close_in(&self.config.solver_settings(), &self.planes, gravity)
-        {
-            let (periodic, velocity) = (self.periodic, &p.velocity);
+        } else if solver::candidates_close_in(&self.config.solver_settings(), &self.planes) {
+            let (periodic, velocity, reach) = (self.periodic, &p.velocity, &self.reach);
+            let planes = &self.planes[..];
+            let turns = (self.config.solver_settings()).planes_in_move(planes, gravity);
+            let may_turn = |i: usize| solver::may_turn(planes, position[i], reach[i], radius[i]);
             let close_in = |(i, j): Pair| {
                 let (i, j) = (i as usize, j as usize);
                 let (xi, xj) = (position[i], position[j]);
                 let shift = periodic.map_or(V::ZERO, |q| q.shift(xi, xj));
                 let (dx, dv) = (xi - (xj + shift), velocity[i] - velocity[j]);
                 solver::close_in_lines(dx, dv, radius[i] + radius[j], dt)
+                    || (turns && (may_turn(i) || may_turn(j)))
             };
             (self.broad_phase).find_pairs_kept_in(
                 position,
