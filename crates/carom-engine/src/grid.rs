@@ -589,6 +589,44 @@ pub(super) mod tests {
         assert_eq!(got, expected, "derived cells");
     }
 
+    /// A search that keeps some pairs keeps what the search and a retain after it keep: in the
+    /// domain's cells, with many particles outside it (the hash), and periodic, for any cell
+    /// size (`keep` is tested inside the grid's own searches).
+    #[test]
+    fn a_search_keeping_some_pairs_keeps_what_a_retain_keeps() {
+        let (pos, rad) = lattice_with_jitter(600);
+        let keep = |(i, j): Pair| (i * 31 + j * 17) % 3 != 0;
+        let mut expected = Vec::new();
+        BruteForce::new().find_pairs(&pos, &rad, &mut expected);
+        expected.retain(|&pair| keep(pair));
+        let (mut scratch, mut kept) = (CellScratch::default(), Vec::new());
+        let domain = Aabb::new(DVec3::splat(-15.0), DVec3::splat(15.0)).unwrap();
+        let outside = Aabb::new(DVec3::splat(-4.0), DVec3::splat(4.0)).unwrap();
+        for cells in [[1, 1, 1], [3, 5, 7], [12, 12, 12], [40, 40, 40]] {
+            for (d, hash) in [(domain, false), (outside, true)] {
+                let mut got = Vec::new();
+                let mut grid = Grid::new(Some(d), Some(&cells)).unwrap();
+                grid.find_pairs_kept_in(&pos, &rad, &keep, &mut got, &mut scratch, &mut kept);
+                assert_eq!(got, expected, "cells {cells:?}");
+                assert_eq!(BroadPhase::<DVec3>::name(&grid).contains("hash"), hash);
+            }
+        }
+        let periodic = crate::periodic::Periodic::new(&domain, &[true, false, true]);
+        let pos: Vec<DVec3> = pos.iter().map(|&x| periodic.unwrap().wrap(x)).collect();
+        let mut expected = Vec::new();
+        BruteForce::new()
+            .with_periodic(periodic)
+            .find_pairs(&pos, &rad, &mut expected);
+        expected.retain(|&pair| keep(pair));
+        for cells in [[1, 1, 1], [3, 5, 7], [12, 12, 12]] {
+            let mut got = Vec::new();
+            let grid = Grid::new(Some(domain), Some(&cells)).unwrap();
+            let mut grid = grid.with_periodic(periodic);
+            grid.find_pairs_kept_in(&pos, &rad, &keep, &mut got, &mut scratch, &mut kept);
+            assert_eq!(got, expected, "periodic, cells {cells:?}");
+        }
+    }
+
     /// A search in lent arrays finds the same pairs, and the grid keeps none of its own.
     #[test]
     fn a_search_in_lent_arrays_finds_the_same_pairs() {
