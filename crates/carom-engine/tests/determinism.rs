@@ -349,7 +349,7 @@ fn golden_hash_elastic_2d() {
 }
 
 /// See [`golden_hash_2d`]: the same bodies as a gas, without gravity, k = 1 and elastic walls:
-/// the lecture's step with the candidates that close in (see `solver::candidates_close_in`).
+/// the lecture's step with the candidates that close in (see `solver::LectureCandidates`).
 #[test]
 fn golden_hash_gas_2d() {
     const GOLDEN: u64 = 0x3728_2b74_82bb_71e4;

@@ -59,7 +59,6 @@ pub(crate) use rows::{
     PlaneRow, Row, RowRecord, Rows, RowsMut, WorkList,
 };
 pub(crate) use settings::{
-    candidates_close_in, close_in_lines, may_turn, plane_reach, raise_to_partners, reach,
-    reach_covers_pushes,
+    plane_reach, raise_to_partners, reach, reach_covers_pushes, LectureCandidates,
 };
 pub(crate) use velocity::integrate;

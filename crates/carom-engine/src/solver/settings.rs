@@ -70,9 +70,12 @@ pub(crate) fn reach_covers_pushes<V: Vector>(
     !settings.lecture_only(elastic)
 }
 
-/// True when this step's candidates are only the pairs that [`close_in_lines`] (or, when
-/// planes bounce in the move, have a particle that [`may_turn`]): the lecture's step (see
-/// [`reach_covers_pushes`]).
+/// Which candidates the lecture's step keeps (see [`reach_covers_pushes`]): the pairs that
+/// [`close_in_lines`] and, when planes bounce in the move (see
+/// [`SolverSettings::planes_in_move`]), every pair of a particle within a plane's candidate
+/// distance (see [`plane_reach`]), whose path may turn at the plane within the step. A world
+/// and a rank of a split run decide each pair through [`LectureCandidates::keeps`], so both
+/// keep the same pairs.
 ///
 /// There, a candidate that is neither touching nor closing in would only wait for the
 /// position phase, which it never reaches. A 10^6-disc gas (area fraction 0.3, speed 7,
@@ -84,21 +87,39 @@ pub(crate) fn reach_covers_pushes<V: Vector>(
 /// closing in faster than its gap allows, and pushes are everywhere. The same test with a
 /// margin for the pushes, tried on the lecture pile, let the deepest overlap reach 10.2 % of
 /// r against 2.2 %.)
-pub(crate) fn candidates_close_in<V: Vector>(
-    settings: &SolverSettings,
-    planes: &[Plane<V>],
-) -> bool {
-    !reach_covers_pushes(settings, planes)
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LectureCandidates<'a, V> {
+    planes: &'a [Plane<V>],
+    /// Planes bounce in the move.
+    turns: bool,
+    dt: f64,
 }
 
-/// True when a particle at `x` of radius `radius` and step reach `reach` is a candidate of
-/// one of `planes` this step (see [`plane_reach`]): when planes bounce in the move (see
-/// [`SolverSettings::planes_in_move`]), its path may turn at a plane within the step, so
-/// [`close_in_lines`] does not bound its pairs.
-#[inline]
-pub(crate) fn may_turn<V: Vector>(planes: &[Plane<V>], x: V, reach: f64, radius: f64) -> bool {
-    let within = plane_reach(reach, radius);
-    planes.iter().any(|plane| plane.signed_distance(x) < within)
+impl<'a, V: Vector> LectureCandidates<'a, V> {
+    /// The test for a step of `dt`, or `None` when contacts can rest (every pair within reach
+    /// is then a candidate, with its reach raised: see [`raise_to_partners`]).
+    pub(crate) fn new(
+        settings: &SolverSettings,
+        planes: &'a [Plane<V>],
+        gravity: V,
+        dt: f64,
+    ) -> Option<Self> {
+        let turns = settings.planes_in_move(planes, gravity);
+        (!reach_covers_pushes(settings, planes)).then_some(Self { planes, turns, dt })
+    }
+
+    /// True when the pair of particles at `x` (`dx = x_i - x_j` as the pair sees it, across
+    /// periodic seams), moving at relative velocity `dv`, with radii `radius` and step reaches
+    /// `reach`, stays a candidate.
+    #[inline]
+    pub(crate) fn keeps(&self, dx: V, dv: V, x: [V; 2], radius: [f64; 2], reach: [f64; 2]) -> bool {
+        let may_turn = |k: usize| {
+            let within = plane_reach(reach[k], radius[k]);
+            (self.planes.iter()).any(|plane| plane.signed_distance(x[k]) < within)
+        };
+        close_in_lines(dx, dv, radius[0] + radius[1], self.dt)
+            || (self.turns && (may_turn(0) || may_turn(1)))
+    }
 }
 
 /// True when two particles `dx = x_i - x_j` apart, moving in straight lines at relative

@@ -100,7 +100,7 @@ pub struct World<V: Vector> {
     /// [`crate::Raising::speed`]); empty otherwise.
     speed: Vec<f64>,
     /// This step's contact candidates (pairs within reach; in the lecture's step, those of
-    /// them that close in: see [`crate::solver::candidates_close_in`]), as storage slots,
+    /// them that close in: see `solver::LectureCandidates`), as storage slots,
     /// sorted.
     pairs: Vec<Pair>,
     /// Scratch for [`crate::broadphase::retain_pairs`].

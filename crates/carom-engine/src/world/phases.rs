@@ -275,44 +275,45 @@ impl<V: Vector> World<V> {
         };
         let (position, radius) = (&p.position, &p.radius);
         let scratch = &mut self.sorter.scratch;
-        if raises {
-            let raising = Raising {
-                speed: &self.speed,
-                radius_at: &|i, partner_speed| solver::reach(radius[i], partner_speed + fall, dt),
-            };
-            let (reach, raised) = (&self.reach, &mut self.raised);
-            (self.broad_phase).find_pairs_raised_in(
-                position,
-                reach,
-                &raising,
-                raised,
-                &mut self.pairs,
-                scratch,
-            );
-            std::mem::swap(&mut self.reach, &mut self.raised);
-        } else if solver::candidates_close_in(&self.config.solver_settings(), &self.planes) {
-            let (periodic, velocity, reach) = (self.periodic, &p.velocity, &self.reach);
-            let planes = &self.planes[..];
-            let turns = (self.config.solver_settings()).planes_in_move(planes, gravity);
-            let may_turn = |i: usize| solver::may_turn(planes, position[i], reach[i], radius[i]);
-            let close_in = |(i, j): Pair| {
-                let (i, j) = (i as usize, j as usize);
-                let (xi, xj) = (position[i], position[j]);
-                let shift = periodic.map_or(V::ZERO, |q| q.shift(xi, xj));
-                let (dx, dv) = (xi - (xj + shift), velocity[i] - velocity[j]);
-                solver::close_in_lines(dx, dv, radius[i] + radius[j], dt)
-                    || (turns && (may_turn(i) || may_turn(j)))
-            };
-            (self.broad_phase).find_pairs_kept_in(
-                position,
-                &self.reach,
-                &close_in,
-                &mut self.pairs,
-                scratch,
-                &mut self.pairs_kept,
-            );
-        } else {
-            (self.broad_phase).find_pairs_in(position, &self.reach, &mut self.pairs, scratch);
+        let settings = self.config.solver_settings();
+        match solver::LectureCandidates::new(&settings, &self.planes, gravity, dt) {
+            None => {
+                let raising = Raising {
+                    speed: &self.speed,
+                    radius_at: &|i, partner_speed| {
+                        solver::reach(radius[i], partner_speed + fall, dt)
+                    },
+                };
+                let (reach, raised) = (&self.reach, &mut self.raised);
+                (self.broad_phase).find_pairs_raised_in(
+                    position,
+                    reach,
+                    &raising,
+                    raised,
+                    &mut self.pairs,
+                    scratch,
+                );
+                std::mem::swap(&mut self.reach, &mut self.raised);
+            }
+            Some(lecture) => {
+                let (periodic, velocity, reach) = (self.periodic, &p.velocity, &self.reach);
+                let keeps = |(i, j): Pair| {
+                    let (i, j) = (i as usize, j as usize);
+                    let (xi, xj) = (position[i], position[j]);
+                    let shift = periodic.map_or(V::ZERO, |q| q.shift(xi, xj));
+                    let (dx, dv) = (xi - (xj + shift), velocity[i] - velocity[j]);
+                    let (radii, reaches) = ([radius[i], radius[j]], [reach[i], reach[j]]);
+                    lecture.keeps(dx, dv, [xi, xj], radii, reaches)
+                };
+                (self.broad_phase).find_pairs_kept_in(
+                    position,
+                    &self.reach,
+                    &keeps,
+                    &mut self.pairs,
+                    scratch,
+                    &mut self.pairs_kept,
+                );
+            }
         }
     }
 

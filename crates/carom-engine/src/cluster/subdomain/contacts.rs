@@ -179,27 +179,25 @@ impl<V: Vector> Subdomain<V> {
         }
         let search = &self.search;
         let first = self.first_slot;
-        // (as a world does: see `solver::candidates_close_in`)
-        let close_in = solver::candidates_close_in(&settings, &self.planes);
-        let turns = settings.planes_in_move(&self.planes, self.config.gravity);
-        let may_turn = |k: usize| {
-            let (x, reach, radius) = (search.position[k], search.reach[k], search.radius[k]);
-            turns && solver::may_turn(&self.planes, x, reach, radius)
-        };
+        // (as a world does: see `solver::LectureCandidates`)
+        let gravity = self.config.gravity;
+        let lecture = solver::LectureCandidates::new(&settings, &self.planes, gravity, dt);
         self.candidates.clear();
         for &(a, b) in &self.found {
             let (a, b) = (a as usize, b as usize);
-            let (dx, dv) = (
-                search.position[a] - search.position[b],
-                search.velocity[a] - search.velocity[b],
-            );
-            let sum_radii = search.radius[a] + search.radius[b];
-            if close_in
-                && !solver::close_in_lines(dx, dv, sum_radii, dt)
-                && !may_turn(a)
-                && !may_turn(b)
-            {
-                continue;
+            if let Some(lecture) = &lecture {
+                let (x, v) = (&search.position, &search.velocity);
+                let (dx, dv) = (x[a] - x[b], v[a] - v[b]);
+                let radii = [search.radius[a], search.radius[b]];
+                if !lecture.keeps(
+                    dx,
+                    dv,
+                    [x[a], x[b]],
+                    radii,
+                    [search.reach[a], search.reach[b]],
+                ) {
+                    continue;
+                }
             }
             let (sa, sb) = (search.slot(a, own, first), search.slot(b, own, first));
             let ((i, ki), (j, kj)) = if sa < sb {
