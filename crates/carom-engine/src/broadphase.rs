@@ -271,7 +271,7 @@ pub(crate) fn retain_pairs(
 }
 
 /// Keeps the pairs of `out[first..]` that `keep` holds for, in order, without branching on
-/// the test (as [`push_if`]).
+/// the test (whose result is unpredictable: see [`crate::grid::scan_run`]).
 #[inline]
 pub(crate) fn keep_tail(out: &mut Vec<Pair>, first: usize, keep: &PairFilter<'_>) {
     let mut to = first;
@@ -281,15 +281,6 @@ pub(crate) fn keep_tail(out: &mut Vec<Pair>, first: usize, keep: &PairFilter<'_>
         to += keep(pair) as usize;
     }
     out.truncate(to);
-}
-
-/// Pushes `pair` onto `out` when `keep`, without branching on `keep`: a search's test holds
-/// for about one candidate in ten, unpredictably, and the branch cost a fifth of the grid's
-/// search of the bench's 10^6-disc gas (32 ms against 26).
-#[inline(always)]
-pub(crate) fn push_if(out: &mut Vec<Pair>, pair: Pair, keep: bool) {
-    out.push(pair);
-    out.truncate(out.len() - 1 + keep as usize);
 }
 
 /// Grows `v`'s capacity to half again its length (and at least [`SPARE`] more) once it is

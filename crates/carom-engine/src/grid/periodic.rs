@@ -1,7 +1,7 @@
 //! The grid's search across periodic seams (see [`crate::periodic`]): the cells around a
 //! particle wrap around the periodic axes, and pairs are tested at the minimum image.
 
-use super::{Grid, GridLayout};
+use super::{scan_run, Grid, GridLayout};
 use crate::broadphase::{collect_pairs, keep_tail, Pair, PairFilter};
 use crate::grid::widened_reach;
 use crate::periodic::Periodic;
@@ -69,25 +69,17 @@ impl<V: Vector> Grid<V> {
                     ([(lo, hi), (0, 0)], 1)
                 };
             }
+            let test = |j: usize| {
+                (j > i) & is_overlapping(pi, periodic.image(pi, positions[j]), ri, radii[j])
+            };
+            let mut hit = |j: usize| out.push((i as u32, j as u32));
             for z in each_cell(&runs[2]) {
                 for y in each_cell(&runs[1]) {
                     let row = (z * layout.cells[1] + y) * layout.cells[0];
                     for &(lo, hi) in &runs[0].0[..runs[0].1] {
                         let start = cell_start[row + lo] as usize;
                         let end = cell_start[row + hi + 1] as usize;
-                        for &j in &ids[start..end] {
-                            let j = j as usize;
-                            if j > i
-                                && is_overlapping(
-                                    pi,
-                                    periodic.image(pi, positions[j]),
-                                    ri,
-                                    radii[j],
-                                )
-                            {
-                                out.push((i as u32, j as u32));
-                            }
-                        }
+                        scan_run(ids, start, end, &test, &mut hit);
                     }
                 }
             }

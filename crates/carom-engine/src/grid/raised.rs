@@ -13,9 +13,7 @@
 //! order up to sign, for the same bits, so no pair is added twice.
 
 use super::{for_each_near, largest, Grid};
-use crate::broadphase::{
-    gather, keep_headroom, push_if, Pair, Raising, CHUNK, PARALLEL_SEARCH_MIN,
-};
+use crate::broadphase::{gather, keep_headroom, Pair, Raising, CHUNK, PARALLEL_SEARCH_MIN};
 use crate::response::is_overlapping;
 use crate::vector::Vector;
 use rayon::prelude::*;
@@ -51,16 +49,16 @@ impl<V: Vector> Grid<V> {
                 let (xi, ri) = (positions[i], radii[i]);
                 let first = out.len();
                 let mut fastest: Option<f64> = None;
-                for_each_near(&layout, cell_start, ids, xi, ri + max_radius, |j| {
-                    // (the pair's test from either side: `is_overlapping` is symmetric, bit
-                    // for bit)
-                    let partner = (j != i) & is_overlapping(xi, positions[j], ri, radii[j]);
-                    if partner {
-                        let s = speed[j];
-                        fastest = Some(fastest.map_or(s, |f| f.max(s)));
+                // (the pair's test from either side: `is_overlapping` is symmetric, bit for bit)
+                let partner = |j: usize| (j != i) & is_overlapping(xi, positions[j], ri, radii[j]);
+                let hit = |j: usize| {
+                    let s = speed[j];
+                    fastest = Some(fastest.map_or(s, |f: f64| f.max(s)));
+                    if j > i {
+                        out.push((i as u32, j as u32));
                     }
-                    push_if(out, (i as u32, j as u32), partner & (j > i));
-                });
+                };
+                for_each_near(&layout, cell_start, ids, xi, ri + max_radius, partner, hit);
                 out[first..].sort_unstable();
                 *raised = match fastest {
                     Some(s) => ri.max(radius_at(i, s)),
@@ -100,14 +98,16 @@ impl<V: Vector> Grid<V> {
         let grown = |k: usize| raised[k] > radii[k];
         let scan = |i: usize, out: &mut Vec<Pair>| {
             let (pi, ri) = (positions[i], raised[i]);
-            for_each_near(&layout, cell_start, ids, pi, ri + max_raised, |j| {
+            let added = |j: usize| {
                 // (a pair of two grown particles is the lower one's)
                 let theirs = (j == i) | ((j < i) & grown(j));
                 let pj = positions[j];
                 let added = is_overlapping(pi, pj, ri, raised[j])
                     & !is_overlapping(pi, pj, radii[i], radii[j]);
-                push_if(out, (i.min(j) as u32, i.max(j) as u32), added & !theirs);
-            });
+                added & !theirs
+            };
+            let hit = |j: usize| out.push((i.min(j) as u32, i.max(j) as u32));
+            for_each_near(&layout, cell_start, ids, pi, ri + max_raised, added, hit);
         };
         let chunks = n.div_ceil(CHUNK);
         if self.buffers.len() < chunks {
