@@ -128,26 +128,24 @@ impl<'a, V: Vector> LectureCandidates<'a, V> {
 /// passing between. Gravity, the same for both, drops out of `dv`; the slop covers the
 /// rounding. Exactly symmetric: swapping `i` and `j` negates `dx` and `dv`, which changes no
 /// bit of any product, so both sides of a pair (and every rank) decide alike.
+///
+/// Every case is worked out and the results combined without a branch: which case holds is
+/// unpredictable from pair to pair, and the branches took most of the test's time. (A test
+/// holds this form to the one with a branch per case, on every kind of input.)
 #[inline]
 pub(crate) fn close_in_lines<V: Vector>(dx: V, dv: V, sum_radii: f64, dt: f64) -> bool {
     let contact = sum_radii * (1.0 + SLOP_FRACTION);
     let (start, limit) = (dx.length_squared(), contact * contact);
-    if start < limit {
-        return true;
-    }
     // (`closing`: the closing speed times the distance; not closing, the distance only grows)
     let closing = -dx.dot(dv);
-    if closing <= 0.0 {
-        return false;
-    }
     let speed_squared = dv.length_squared();
-    if closing >= speed_squared * dt {
-        // (closest at the end of the step or later)
-        (dx + dv * dt).length_squared() < limit
-    } else {
-        // (closest within the step: `start - closing^2 / speed_squared`, without the division)
-        start * speed_squared - closing * closing < limit * speed_squared
-    }
+    // (closest at the end of the step or later)
+    let closest_at_end = closing >= speed_squared * dt;
+    let end_within = (dx + dv * dt).length_squared() < limit;
+    // (closest within the step: `start - closing^2 / speed_squared`, without the division)
+    let passes_within = start * speed_squared - closing * closing < limit * speed_squared;
+    let meets = (closest_at_end & end_within) | (!closest_at_end & passes_within);
+    (start < limit) | ((closing > 0.0) & meets)
 }
 
 /// How close a particle of radius `radius` and step reach `reach` (see [`reach`]; raised to
@@ -234,7 +232,64 @@ pub struct VelocitySolve {
 #[cfg(test)]
 mod tests {
     use super::close_in_lines;
+    use super::SLOP_FRACTION;
     use glam::DVec2;
+
+    /// [`close_in_lines`] with a branch per case, as it was first written.
+    fn close_in_lines_by_cases(dx: DVec2, dv: DVec2, sum_radii: f64, dt: f64) -> bool {
+        let contact = sum_radii * (1.0 + SLOP_FRACTION);
+        let (start, limit) = (dx.length_squared(), contact * contact);
+        if start < limit {
+            return true;
+        }
+        let closing = -dx.dot(dv);
+        if closing <= 0.0 {
+            return false;
+        }
+        let speed_squared = dv.length_squared();
+        if closing >= speed_squared * dt {
+            (dx + dv * dt).length_squared() < limit
+        } else {
+            start * speed_squared - closing * closing < limit * speed_squared
+        }
+    }
+
+    /// The form without branches decides as the one with a branch per case, for random pairs
+    /// and for zeros, infinities and NaN in every component.
+    #[test]
+    fn the_test_without_branches_decides_as_the_branches_do() {
+        let mut next = crate::testing::uniform(11);
+        let specials = [
+            0.0,
+            -0.0,
+            1.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            1e-300,
+        ];
+        let mut pick = |scale: f64| {
+            let u = next();
+            if u < 0.2 {
+                specials[((u * 35.0) as usize).min(specials.len() - 1)]
+            } else {
+                (next() * 2.0 - 1.0) * scale
+            }
+        };
+        for _ in 0..200_000 {
+            let dx = DVec2::new(pick(3.0), pick(3.0));
+            let dv = DVec2::new(pick(30.0), pick(30.0));
+            let (sum, dt) = (
+                pick(2.0).abs(),
+                [0.1, 1.0 / 60.0, 0.0][(pick(3.0).abs() as usize).min(2)],
+            );
+            assert_eq!(
+                close_in_lines(dx, dv, sum, dt),
+                close_in_lines_by_cases(dx, dv, sum, dt),
+                "{dx} {dv} {sum} {dt}"
+            );
+        }
+    }
 
     /// The straight-line test against the distance sampled along the step, for random pairs:
     /// never a miss (a pair sampled within contact is always kept), and it is symmetric.
