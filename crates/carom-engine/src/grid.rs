@@ -448,7 +448,7 @@ impl<V: Vector> Grid<V> {
     ) {
         let max_radius = self.bin(positions, radii);
         let layout = self.layout;
-        if layout.holds_pairs_to_neighbours::<V>(max_radius) {
+        if self.searches_from_one_side(max_radius) {
             return self.search_from_one_side(positions, radii, keep, pairs);
         }
         let (cell_start, ids) = (&self.cell_start, &self.ids);

@@ -39,16 +39,48 @@ impl GridLayout {
 }
 
 impl<V: Vector> Grid<V> {
+    /// True when the search from one side can take this layout for particles of radius at
+    /// most `max_radius`: the cells [hold pairs to neighbours](GridLayout::holds_pairs_to_neighbours),
+    /// and a periodic axis has at least three (with fewer, a cell's neighbours on both sides
+    /// would be one cell, visited twice).
+    pub(super) fn searches_from_one_side(&self, max_radius: f64) -> bool {
+        let wraps = |a: usize| self.periodic.is_some_and(|p| p.is_periodic(a));
+        self.layout.holds_pairs_to_neighbours::<V>(max_radius)
+            && (0..V::DIM).all(|a| !wraps(a) || self.layout.cells[a] >= 3)
+    }
+
     /// [`BroadPhase::find_pairs`](crate::broadphase::BroadPhase::find_pairs) by cells, each
-    /// pair tested from one side (see the [module notes](self)), keeping only the pairs `keep`
-    /// holds for, if any. The buckets must be built, with cells that
-    /// [hold pairs to neighbours](GridLayout::holds_pairs_to_neighbours).
+    /// pair tested from one side (see the [module notes](self)), across the periodic seams if
+    /// any, keeping only the pairs `keep` holds for, if any. The buckets must be built, with a
+    /// layout the search [can take](Grid::searches_from_one_side).
     pub(super) fn search_from_one_side(
         &mut self,
         positions: &[V],
         radii: &[f64],
         keep: Option<&PairFilter<'_>>,
         pairs: &mut Vec<Pair>,
+    ) {
+        match self.periodic {
+            None => self.walk_cells(positions, keep, pairs, |i, j| {
+                is_overlapping(positions[i], positions[j], radii[i], radii[j])
+            }),
+            // (at the minimum image as the lower particle sees it, as every other search
+            // tests a pair: the image is rounded differently from the other side)
+            Some(periodic) => self.walk_cells(positions, keep, pairs, |i, j| {
+                let (low, high) = (i.min(j), i.max(j));
+                let image = periodic.image(positions[low], positions[high]);
+                is_overlapping(positions[low], image, radii[low], radii[high])
+            }),
+        }
+    }
+
+    /// The walk of [`Grid::search_from_one_side`], with `overlaps(i, j)` the pair test.
+    fn walk_cells(
+        &mut self,
+        positions: &[V],
+        keep: Option<&PairFilter<'_>>,
+        pairs: &mut Vec<Pair>,
+        overlaps: impl Fn(usize, usize) -> bool + Sync,
     ) {
         let layout = self.layout;
         let [width, height, depth] = layout.cells;
@@ -58,50 +90,33 @@ impl<V: Vector> Grid<V> {
         if self.buffers.len() < tasks {
             self.buffers.resize_with(tasks, Vec::new);
         }
-        let (cell_start, ids) = (&self.cell_start, &self.ids);
-        // The run of cells `first..=last` (clamped to its row) of the row `y` of layer `z`.
-        let run = |z: usize, y: usize, first: usize, last: usize| {
-            let row = (z * height + y) * width;
-            let start = cell_start[row + first] as usize;
-            (start, cell_start[row + last.min(width - 1) + 1] as usize)
+        let after = Forward {
+            cells: layout.cells,
+            wraps: [0, 1, 2].map(|a| self.periodic.is_some_and(|p| p.is_periodic(a))),
+            cell_start: &self.cell_start,
         };
+        let ids = &self.ids;
         let work = |(task, out): (usize, &mut Vec<Pair>)| {
             out.clear();
             for r in task * rows_per_task..((task + 1) * rows_per_task).min(rows) {
                 let (z, y) = (r / height, r % height);
                 for x in 0..width {
-                    let (start, end) = run(z, y, x, x);
+                    let (start, end) = after.run(z, y, x, x);
                     if start == end {
                         continue;
                     }
-                    // Every run after the cell's own that it can touch: the next row's three
-                    // cells, and in 3D the next layer's three rows of three.
-                    let mut after = [(0, 0); 4];
-                    let mut count = 0;
-                    let left = x.saturating_sub(1);
-                    if y + 1 < height {
-                        after[count] = run(z, y + 1, left, x + 1);
-                        count += 1;
-                    }
-                    if z + 1 < depth {
-                        for up in y.saturating_sub(1)..=(y + 1).min(height - 1) {
-                            after[count] = run(z + 1, up, left, x + 1);
-                            count += 1;
-                        }
-                    }
-                    let own_row_end = run(z, y, x, x + 1).1;
+                    let (own_end, runs, count) = after.runs(z, y, x);
                     for k in start..end {
                         let i = ids[k] as usize;
-                        let (xi, ri) = (positions[i], radii[i]);
-                        let test = |j: usize| is_overlapping(xi, positions[j], ri, radii[j]);
+                        let test = |j: usize| overlaps(i, j);
                         let mut hit = |j: usize| {
                             let pair = (i.min(j) as u32, i.max(j) as u32);
                             if keep.is_none_or(|keep| keep(pair)) {
                                 out.push(pair);
                             }
                         };
-                        scan_run(ids, k + 1, own_row_end, &test, &mut hit);
-                        for &(first, last) in &after[..count] {
+                        scan_run(ids, k + 1, own_end, &test, &mut hit);
+                        for &(first, last) in &runs[..count] {
                             scan_run(ids, first, last, &test, &mut hit);
                         }
                     }
@@ -125,12 +140,107 @@ impl<V: Vector> Grid<V> {
     }
 }
 
+/// The cells after a cell that the search from one side visits from it, as runs of the
+/// particles in cell order (`cell_start`): the next cell of its row, the next row's three
+/// cells, and in 3D the next layer's three rows of three, wrapped around the axes that
+/// `wraps` (each with at least three cells) and cut at the others' ends.
+struct Forward<'a> {
+    cells: [usize; 3],
+    wraps: [bool; 3],
+    cell_start: &'a [u32],
+}
+
+/// The most runs [`Forward::runs`] gives: the next cell, then up to two runs (a row's three
+/// cells split by its seam) in each of the next row and the next layer's three rows.
+const MOST_RUNS: usize = 9;
+
+impl Forward<'_> {
+    /// The particles of cells `first..=last` of row `y` of layer `z`, as a run.
+    #[inline]
+    fn run(&self, z: usize, y: usize, first: usize, last: usize) -> (usize, usize) {
+        let row = (z * self.cells[1] + y) * self.cells[0];
+        let start = self.cell_start[row + first] as usize;
+        (start, self.cell_start[row + last + 1] as usize)
+    }
+
+    /// The coordinate after `c` on `axis`: wrapped, or `None` past the end.
+    #[inline]
+    fn next(&self, axis: usize, c: usize) -> Option<usize> {
+        if c + 1 < self.cells[axis] {
+            Some(c + 1)
+        } else {
+            self.wraps[axis].then_some(0)
+        }
+    }
+
+    /// Adds to `runs` the cells `x - 1..=x + 1` of row `y` of layer `z` (one run, or two
+    /// across the seam).
+    #[inline]
+    fn add_three(
+        &self,
+        z: usize,
+        y: usize,
+        x: usize,
+        runs: &mut ([(usize, usize); MOST_RUNS], usize),
+    ) {
+        let width = self.cells[0];
+        let mut add = |first: usize, last: usize| {
+            runs.0[runs.1] = self.run(z, y, first, last);
+            runs.1 += 1;
+        };
+        match (self.wraps[0], x) {
+            (true, 0) => {
+                add(0, 1.min(width - 1));
+                add(width - 1, width - 1);
+            }
+            (true, x) if x + 1 == width => {
+                add(x - 1, x);
+                add(0, 0);
+            }
+            _ => add(x.saturating_sub(1), (x + 1).min(width - 1)),
+        }
+    }
+
+    /// For cell `x` of row `y` of layer `z`: where the run from each of its particles ends
+    /// (its own cell and, in the same run, the next one when no seam lies between), and the
+    /// runs after it (see [`Forward`]), with their count.
+    #[inline]
+    fn runs(&self, z: usize, y: usize, x: usize) -> (usize, [(usize, usize); MOST_RUNS], usize) {
+        let mut runs = ([(0, 0); MOST_RUNS], 0);
+        let width = self.cells[0];
+        let own_end = self.run(z, y, x, (x + 1).min(width - 1)).1;
+        if x + 1 == width && self.wraps[0] {
+            runs.0[0] = self.run(z, y, 0, 0);
+            runs.1 = 1;
+        }
+        if let Some(up) = self.next(1, y) {
+            self.add_three(z, up, x, &mut runs);
+        }
+        if let Some(above) = self.next(2, z) {
+            let height = self.cells[1];
+            let (below, over) = if self.wraps[1] {
+                ((y + height - 1) % height, (y + 1) % height)
+            } else {
+                (y.saturating_sub(1), (y + 1).min(height - 1))
+            };
+            // (three rows; without a wrap, fewer at the ends)
+            let mut row = Some(below);
+            while let Some(r) = row {
+                self.add_three(above, r, x, &mut runs);
+                row = (r != over).then(|| (r + 1) % height);
+            }
+        }
+        (own_end, runs.0, runs.1)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use crate::broadphase::{BroadPhase, CellScratch, Pair};
     use crate::brute::BruteForce;
     use crate::domain::Aabb;
     use crate::grid::Grid;
+    use crate::periodic::Periodic;
     use crate::vector::Vector;
     use glam::{DVec2, DVec3};
 
@@ -181,6 +291,55 @@ mod tests {
         grid.find_pairs(&positions, &radii, &mut got);
         assert!(!grid.layout().holds_pairs_to_neighbours::<V>(1.5));
         assert_eq!(got, expected, "14 cells, searched by particle");
+    }
+
+    /// Across periodic seams too, with as few as three cells on a wrapping axis (a cell's
+    /// neighbours on both sides then wrap to the same row's two other cells).
+    fn finds_across_seams_what_brute_force_finds<V: Vector>() {
+        let domain = Aabb::new(V::from_slice(&[-20.0; 3]), V::from_slice(&[20.0; 3])).unwrap();
+        let (positions, radii) = cloud::<V>(3000, 8);
+        let keep = |(i, j): Pair| (2 * i + j) % 3 != 1;
+        let (mut scratch, mut retained) = (CellScratch::default(), Vec::new());
+        for axes in [
+            [true, false, false],
+            [true, true, true],
+            [false, true, true],
+        ] {
+            let periodic = Periodic::new(&domain, &axes);
+            let positions: Vec<V> = positions
+                .iter()
+                .map(|&x| periodic.unwrap().wrap(x))
+                .collect();
+            let mut expected = Vec::new();
+            let mut brute = BruteForce::new().with_periodic(periodic);
+            brute.find_pairs(&positions, &radii, &mut expected);
+            let mut kept = expected.clone();
+            kept.retain(|&pair| keep(pair));
+            for cells in [[3, 3, 3], [4, 3, 5], [13, 5, 3], [7, 13, 4]] {
+                let cells = &cells[..V::DIM];
+                let grid = Grid::new(Some(domain), Some(cells)).unwrap();
+                let mut grid = grid.with_periodic(periodic);
+                let mut got = Vec::new();
+                grid.find_pairs(&positions, &radii, &mut got);
+                assert!(grid.searches_from_one_side(1.5), "{axes:?} {cells:?}");
+                assert_eq!(got, expected, "{axes:?}, cells {cells:?}");
+                grid.find_pairs_kept_in(
+                    &positions,
+                    &radii,
+                    &keep,
+                    &mut got,
+                    &mut scratch,
+                    &mut retained,
+                );
+                assert_eq!(got, kept, "{axes:?}, cells {cells:?}, keeping some");
+            }
+        }
+    }
+
+    #[test]
+    fn the_search_from_one_side_finds_across_seams_what_brute_force_finds() {
+        finds_across_seams_what_brute_force_finds::<DVec2>();
+        finds_across_seams_what_brute_force_finds::<DVec3>();
     }
 
     #[test]

@@ -55,6 +55,9 @@ impl<V: Vector> Grid<V> {
         pairs: &mut Vec<Pair>,
     ) {
         let max_radius = self.bin(positions, radii);
+        if self.searches_from_one_side(max_radius) {
+            return self.search_from_one_side(positions, radii, keep, pairs);
+        }
         let layout = self.layout;
         let (cell_start, ids) = (&self.cell_start, &self.ids);
         collect_pairs(positions.len(), &mut self.buffers, pairs, |i, out| {

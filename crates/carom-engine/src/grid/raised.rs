@@ -39,7 +39,7 @@ impl<V: Vector> Grid<V> {
         let max_radius = self.bin(positions, radii);
         let layout = self.layout;
         let Raising { speed, radius_at } = *raising;
-        if layout.holds_pairs_to_neighbours::<V>(max_radius) {
+        if self.searches_from_one_side(max_radius) {
             self.search_from_one_side(positions, radii, None, pairs);
             raise_over_pairs(raised, radii, pairs, raising, n >= PARALLEL_SEARCH_MIN);
             return self.add_raised_pairs(positions, radii, raised, pairs);
