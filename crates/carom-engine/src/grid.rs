@@ -351,9 +351,9 @@ const LANES: usize = 4;
 /// for. The run is tested [`LANES`] particles at a time, every lane whether or not it lies in
 /// the run (a lane past the end tests some valid particle, and its result is dropped), with no
 /// branch on any one result: a row of cells holds two or three particles and a test holds for
-/// about one in ten, both unpredictably, and a branch per particle (the loop's end, or the
-/// result) cost more than the tests. (The bench's 10^6-disc gas: a test per particle and a
-/// branchless push took 47 of the search's 66 ms a step on one thread.)
+/// about one in ten, both unpredictably. (The bench's 10^6-disc gas, searched by particle: the
+/// broad phase took 39 ms a step against 40 with a test and a branchless push per particle;
+/// most of what is left is the tests' loads, not their branches.)
 #[inline(always)]
 pub(crate) fn scan_run(
     ids: &[u32],
@@ -437,8 +437,10 @@ pub(crate) fn bounding_box<V: Vector>(positions: &[V]) -> Aabb<V> {
 
 impl<V: Vector> Grid<V> {
     /// The search of [`BroadPhase::find_pairs`] in the domain's cells, keeping only the pairs
-    /// `keep` holds for, if any: each particle's pairs are tested as soon as they are found,
-    /// while they are in cache, and never take room in `pairs` or the chunks' buffers.
+    /// `keep` holds for, if any: from one side when the cells hold every pair to neighbouring
+    /// cells (see [`half`]), else particle by particle. Either way each pair is tested against
+    /// `keep` as soon as it is found, while it is in cache, and never takes room in `pairs` or
+    /// the buffers unless kept.
     fn search(
         &mut self,
         positions: &[V],

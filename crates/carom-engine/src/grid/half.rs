@@ -9,11 +9,16 @@
 //! which is about the storage order (see `World`'s spatial sort), so the positions are read
 //! nearly in sequence.
 //!
+//! Across periodic seams the cells after a cell wrap round (each periodic axis needs three
+//! cells or more), and a pair is tested at the minimum image its lower particle sees, as every
+//! other search tests it. The resting step's first search, whose radii are then raised to the
+//! partners' speeds, is this search too (see [`super::raised`]).
+//!
 //! The pairs come out grouped by cell, not by particle, so they are sorted at the end: the set
 //! is exact and its order canonical (see [`crate::broadphase`]), so the solver sees the same
 //! contacts as from the search by particle, and every run the same bits. (The bench's 10^6-disc
-//! gas, 2 threads: the search by particle took 35-38 ms a step, this one 17 ms and 4 more to
-//! sort the pairs it finds.)
+//! gas, 2 threads: the broad phase took 41 ms a step with the search by particle, 30 with this
+//! one, the sort of its pairs included.)
 
 use super::{scan_run, Grid, GridLayout};
 use crate::broadphase::{gather, keep_headroom, Pair, PairFilter, PARALLEL_SEARCH_MIN};
@@ -260,6 +265,29 @@ mod tests {
         (positions, radii)
     }
 
+    /// Asserts that `grid` finds `expected` among `positions`, and keeps `kept` of them with
+    /// `keep`.
+    fn assert_finds<V: Vector>(
+        grid: &mut Grid<V>,
+        (positions, radii): (&[V], &[f64]),
+        (expected, kept): (&[Pair], &[Pair]),
+        keep: &(dyn Fn(Pair) -> bool + Sync),
+        label: &str,
+    ) {
+        let (mut got, mut scratch, mut retained) = (Vec::new(), CellScratch::default(), Vec::new());
+        grid.find_pairs(positions, radii, &mut got);
+        assert_eq!(got, expected, "{label}");
+        grid.find_pairs_kept_in(
+            positions,
+            radii,
+            keep,
+            &mut got,
+            &mut scratch,
+            &mut retained,
+        );
+        assert_eq!(got, kept, "{label}, keeping some");
+    }
+
     /// The search from one side finds exactly brute force's pairs (and, keeping some, what a
     /// retain after it keeps), in 2D and 3D, with cells exactly as wide as it needs and wider,
     /// with particles clamped into the border cells.
@@ -272,23 +300,18 @@ mod tests {
         kept.retain(|&pair| keep(pair));
         // (a domain a little inside the cloud: its border cells take the few particles beyond)
         let domain = Aabb::new(V::from_slice(&[-19.9; 3]), V::from_slice(&[19.9; 3])).unwrap();
-        let (mut scratch, mut retained) = (CellScratch::default(), Vec::new());
         for cells in [1, 5, 13] {
             let mut grid = Grid::new(Some(domain), Some(&vec![cells; V::DIM])).unwrap();
-            let mut got = Vec::new();
-            grid.find_pairs(&positions, &radii, &mut got);
-            assert!(grid.layout().holds_pairs_to_neighbours::<V>(1.5));
-            assert_eq!(BroadPhase::<V>::name(&grid), "grid");
-            assert_eq!(got, expected, "{} cells", cells);
-            grid.find_pairs_kept_in(
-                &positions,
-                &radii,
+            let found = (&expected[..], &kept[..]);
+            assert_finds(
+                &mut grid,
+                (&positions, &radii),
+                found,
                 &keep,
-                &mut got,
-                &mut scratch,
-                &mut retained,
+                &format!("{cells} cells"),
             );
-            assert_eq!(got, kept, "{} cells, keeping some", cells);
+            assert!(grid.searches_from_one_side(1.5));
+            assert_eq!(BroadPhase::<V>::name(&grid), "grid");
         }
         // (13 cells of 39.8 / 13 = 3.06 hold pairs of radius 1.5; 14 of 2.84 would not)
         let grid = Grid::<V>::new(Some(domain), Some(&vec![14; V::DIM])).unwrap();
@@ -305,7 +328,6 @@ mod tests {
         let domain = Aabb::new(V::from_slice(&[-20.0; 3]), V::from_slice(&[20.0; 3])).unwrap();
         let (positions, radii) = cloud::<V>(3000, 8);
         let keep = |(i, j): Pair| (2 * i + j) % 3 != 1;
-        let (mut scratch, mut retained) = (CellScratch::default(), Vec::new());
         for axes in [
             [true, false, false],
             [true, true, true],
@@ -325,19 +347,10 @@ mod tests {
                 let cells = &cells[..V::DIM];
                 let grid = Grid::new(Some(domain), Some(cells)).unwrap();
                 let mut grid = grid.with_periodic(periodic);
-                let mut got = Vec::new();
-                grid.find_pairs(&positions, &radii, &mut got);
-                assert!(grid.searches_from_one_side(1.5), "{axes:?} {cells:?}");
-                assert_eq!(got, expected, "{axes:?}, cells {cells:?}");
-                grid.find_pairs_kept_in(
-                    &positions,
-                    &radii,
-                    &keep,
-                    &mut got,
-                    &mut scratch,
-                    &mut retained,
-                );
-                assert_eq!(got, kept, "{axes:?}, cells {cells:?}, keeping some");
+                let found = (&expected[..], &kept[..]);
+                let label = format!("{axes:?}, cells {cells:?}");
+                assert_finds(&mut grid, (&positions, &radii), found, &keep, &label);
+                assert!(grid.searches_from_one_side(1.5), "{label}");
             }
         }
     }
