@@ -493,7 +493,8 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
         // (the hash, for many particles outside the domain as in `find_pairs`, searches and
         // then keeps)
         if self.periodic.is_none() && self.too_many_outside(positions) {
-            self.find_pairs_in(positions, radii, pairs, scratch);
+            self.escaped = true;
+            self.overflow.find_pairs(positions, radii, pairs);
             return retain_pairs(pairs, kept, positions.len() >= PARALLEL_SEARCH_MIN, keep);
         }
         self.lend(scratch);
