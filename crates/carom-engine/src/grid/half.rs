@@ -22,6 +22,7 @@
 
 use super::{scan_run, Grid, GridLayout};
 use crate::broadphase::{gather, keep_headroom, Pair, PairFilter, PARALLEL_SEARCH_MIN};
+use crate::bucket::sort_pairs_by_counting;
 use crate::response::is_overlapping;
 use crate::vector::Vector;
 use rayon::prelude::*;
@@ -142,6 +143,17 @@ impl<V: Vector> Grid<V> {
         } else {
             buffers.iter_mut().enumerate().for_each(work);
         }
+        let n = positions.len();
+        if buffers.iter().map(Vec::len).sum::<usize>() > n / COUNTING_ABOVE {
+            let parts = if parallel {
+                rayon::current_num_threads()
+            } else {
+                1
+            };
+            // (the bins' cells are not read after the walk: their memory is the counts')
+            let (counts, totals) = (&mut self.cell_of, &mut self.run_totals);
+            return sort_pairs_by_counting(buffers, n, parts, counts, totals, pairs);
+        }
         gather(buffers, pairs);
         if parallel {
             pairs.par_sort_unstable();
@@ -150,6 +162,12 @@ impl<V: Vector> Grid<V> {
         }
     }
 }
+
+/// The pairs are sorted by counting (see [`sort_pairs_by_counting`]) when there are more than
+/// one per this many particles: a counting sort passes over every particle, a comparison sort
+/// `log` times over the pairs. (The 10^6 falling discs have 0.55 pairs a particle, a gas at
+/// area fraction 0.3 with the lecture's candidates 0.11.)
+const COUNTING_ABOVE: usize = 4;
 
 /// The cells after a cell that the search from one side visits from it, as runs of the
 /// particles in cell order (`cell_start`): the next cell of its row, the next row's three
