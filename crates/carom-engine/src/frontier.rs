@@ -133,6 +133,15 @@ impl<'a> Stamps<'a> {
         (Stamps::new(a, ga), Stamps::new(b, gb))
     }
 
+    /// Whether any slot below `end` is stamped at least `since`, from the groups alone.
+    #[inline]
+    fn any_since(&self, since: u32, end: usize) -> bool {
+        let end = end.min(self.slot.len());
+        self.group[..end.div_ceil(GROUP)]
+            .iter()
+            .any(|group| group.latest >= since)
+    }
+
     /// Appends to `out` the slots below `end` stamped at least `since`, ascending, a group of
     /// [`GROUP`] slots at a time. After each group, `more` sees the slots the group added;
     /// when it says false, stops there and returns false.
@@ -375,6 +384,10 @@ impl Frontier {
         let index = &self.blocks[block];
         let first = contacts.start;
         let mut budget = contacts.len().div_ceil(SCAN_ABOVE) * 2;
+        // (most blocks of a sparse sweep have no particle stamped: nothing to seed or clear)
+        if !stamps.any_since(since, index.reached) {
+            return Walk::Done;
+        }
         SCRATCH.with_borrow_mut(|scratch| {
             if !scratch.seed(index, &contacts, stamps, since, &mut budget) {
                 return Walk::ScanPast(None);
