@@ -191,6 +191,11 @@ pub(crate) fn sort_pairs_by_counting(
             .for_each(count);
     }
     let all = totals.iter().sum::<u32>() as usize;
+    debug_assert_eq!(
+        all,
+        chunks.iter().map(Vec::len).sum::<usize>(),
+        "a pair's particle >= n"
+    );
     pairs.clear();
     pairs.resize(all, (0, 0));
     crate::broadphase::keep_headroom(pairs);
