@@ -32,6 +32,16 @@ pub(crate) fn reach(radius: f64, speed: f64, dt: f64) -> f64 {
     radius + SLOP_FRACTION * radius + (speed * dt).min(radius)
 }
 
+/// A particle's [`reach`] at velocity `v` with radius `radius`, gravity adding `fall` to its
+/// speed this step (`|g| dt`), with its speed and its move over `dt` in radii (see
+/// [`crate::StepStats::fastest_move`]): what a world and a rank of a split run work out for
+/// each of their particles, the same way.
+#[inline]
+pub(crate) fn reach_at<V: Vector>(v: V, radius: f64, fall: f64, dt: f64) -> (f64, f64, f64) {
+    let speed = v.length_squared().sqrt();
+    (reach(radius, speed + fall, dt), speed, speed * dt / radius)
+}
+
 /// Raises `reach[i]` (see [`reach`]) to what particle `i` would reach at the speed of each of
 /// its candidates `(i, j)` in `pairs` (`speed(j)`, length / time; gravity's `fall` added), and
 /// `reach[j]` likewise; returns whether any reach grew. Only for the particles `own` says are

@@ -236,11 +236,7 @@ impl<V: Vector> World<V> {
         self.reach.resize(p.len(), 0.0);
         self.speed.resize(if raises { p.len() } else { 0 }, 0.0);
         // (each particle's reach, its speed and its move in radii: see `StepStats::fastest_move`)
-        let one = |v: &V, r: f64| {
-            let speed = v.length_squared().sqrt();
-            let moves = speed * dt / r;
-            (solver::reach(r, speed + fall, dt), speed, moves)
-        };
+        let one = |v: &V, r: f64| solver::reach_at(*v, r, fall, dt);
         let particles = || p.velocity.par_iter().zip(p.radius.par_iter());
         // (the speeds, when the search raises reaches, in the same pass: a square root per
         // particle instead of one per partner the search finds, through a closure)

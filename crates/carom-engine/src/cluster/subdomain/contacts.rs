@@ -159,9 +159,9 @@ impl<V: Vector> Subdomain<V> {
         self.fastest_move = 0.0;
         for s in 0..own {
             let (v, r) = (self.window.velocity[s], self.window.radius[s]);
-            let speed = v.length_squared().sqrt();
-            self.reach.push(solver::reach(r, speed + fall, dt));
-            self.fastest_move = self.fastest_move.max(speed * dt / r);
+            let (reach, _, moves) = solver::reach_at(v, r, fall, dt);
+            self.reach.push(reach);
+            self.fastest_move = self.fastest_move.max(moves);
         }
         self.search_with_ghosts(link);
         // (as a world does: see `solver::raise_to_partners`; a ghost's velocity came with it,
