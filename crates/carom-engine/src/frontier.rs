@@ -384,7 +384,7 @@ impl Frontier {
         let index = &self.blocks[block];
         let first = contacts.start;
         let mut budget = contacts.len().div_ceil(SCAN_ABOVE) * 2;
-        // (most blocks of a sparse sweep have no particle stamped: nothing to seed or clear)
+        // (in a sparse sweep many blocks have no particle stamped: nothing to seed or clear)
         if !stamps.any_since(since, index.reached) {
             return Walk::Done;
         }
