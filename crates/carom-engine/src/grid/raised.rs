@@ -151,6 +151,12 @@ impl<V: Vector> Grid<V> {
 /// a search from one side finds once each), then its radius. The same bits as taking the
 /// largest radius: `radius_at` does not fall with the speed, so it keeps the largest speed's
 /// radius the largest, and a maximum is the same in any order.
+///
+/// The same result as [`crate::broadphase::raise_to_partners`] on a copy of `radii`, which the
+/// other searches and a rank of a split run use; this form is the grid's because it calls
+/// `radius_at` (a `dyn` closure) once a particle instead of twice a pair, on the thread pool,
+/// and keeps the fastest speeds in `raised` itself instead of in an array of their own (8 bytes
+/// a particle at the peak).
 fn raise_over_pairs(
     raised: &mut Vec<f64>,
     radii: &[f64],
