@@ -112,12 +112,15 @@ impl<V: Vector> Grid<V> {
             out.clear();
             for r in task * rows_per_task..((task + 1) * rows_per_task).min(rows) {
                 let (z, y) = (r / height, r % height);
+                let mut runs = [(0, 0); MOST_RUNS];
                 for x in 0..width {
                     let (start, end) = after.run(z, y, x, x);
                     if start == end {
                         continue;
                     }
-                    let (own_end, runs, count) = after.runs(z, y, x);
+                    // (written in place: returned by value, the runs were copied through the
+                    // stack, and the copy's wide load waited on their narrow stores)
+                    let (own_end, count) = after.runs(z, y, x, &mut runs);
                     for k in start..end {
                         let i = ids[k] as usize;
                         let test = |j: usize| overlaps(i, j);
@@ -210,7 +213,7 @@ impl Forward<'_> {
         z: usize,
         y: usize,
         x: usize,
-        runs: &mut ([(usize, usize); MOST_RUNS], usize),
+        runs: &mut (&mut [(usize, usize); MOST_RUNS], usize),
     ) {
         let width = self.cells[0];
         let mut add = |first: usize, last: usize| {
@@ -234,8 +237,14 @@ impl Forward<'_> {
     /// (its own cell and, in the same run, the next one when no seam lies between), and the
     /// runs after it (see [`Forward`]), with their count.
     #[inline]
-    fn runs(&self, z: usize, y: usize, x: usize) -> (usize, [(usize, usize); MOST_RUNS], usize) {
-        let mut runs = ([(0, 0); MOST_RUNS], 0);
+    fn runs(
+        &self,
+        z: usize,
+        y: usize,
+        x: usize,
+        into: &mut [(usize, usize); MOST_RUNS],
+    ) -> (usize, usize) {
+        let mut runs = (into, 0);
         let width = self.cells[0];
         let own_end = self.run(z, y, x, (x + 1).min(width - 1)).1;
         if x + 1 == width && self.wraps[0] {
@@ -259,7 +268,7 @@ impl Forward<'_> {
                 row = (r != over).then(|| (r + 1) % height);
             }
         }
-        (own_end, runs.0, runs.1)
+        (own_end, runs.1)
     }
 }
 
