@@ -20,9 +20,10 @@ fi
 # Lints and documentation, warnings as errors (issue 13: `missing_docs` and the rest of
 # [workspace.lints] in Cargo.toml are enforced here). Both build the dependencies in check mode
 # (metadata only, shared between clippy and rustdoc), not with cargo test's artefacts; together
-# they add about 3 min on 2 cores after the test build (see CHANGELOG.md).
+# they add about 3 min on 2 cores after the test build (see CHANGELOG.md). The private items
+# too: most of the engine's notes are on them, and a broken link there went unseen.
 cargo clippy --workspace --all-targets -- -D warnings
-RUSTDOCFLAGS=-Dwarnings cargo doc --workspace --no-deps
+RUSTDOCFLAGS=-Dwarnings cargo doc --workspace --no-deps --document-private-items
 # Issue 12: the Python module. A fresh virtual environment, `pip install ./python` (maturin
 # builds the extension in release mode, about 3 min on 2 cores) and its pytest suite, which
 # compares it with the `carom` binary that `cargo test --workspace` built above.

@@ -43,9 +43,10 @@ impl GridLayout {
 }
 
 impl<V: Vector> Grid<V> {
-    /// [`BroadPhase::find_pairs`] with periodic axes, keeping only the pairs `keep` holds for,
-    /// if any (as [`Grid::search`]): the positions lie in the domain on those axes (the world
-    /// wraps them), so no search goes to the hash; other axes clamp as ever.
+    /// [`BroadPhase::find_pairs`](crate::broadphase::BroadPhase::find_pairs) with periodic
+    /// axes, keeping only the pairs `keep` holds for, if any (as [`Grid::search`]): the
+    /// positions lie in the domain on those axes (the world wraps them), so no search goes to
+    /// the hash; other axes clamp as ever.
     pub(super) fn find_periodic_pairs(
         &mut self,
         periodic: &Periodic,

@@ -23,10 +23,11 @@ use rayon::prelude::*;
 
 impl<V: Vector> Grid<V> {
     /// Makes `raised` and `pairs` what a search with `radii`, the raise over its pairs and a
-    /// search with the raised radii make (see [`BroadPhase::find_pairs_raised_in`]): the first
-    /// search (from one side, then a pass over its pairs; or by particle, visiting every
-    /// partner on both sides) raises each particle's radius to its fastest partner's, then the
-    /// particles whose radius grew search again (see [`Grid::add_raised_pairs`]).
+    /// search with the raised radii make (see
+    /// [`BroadPhase::find_pairs_raised_in`](crate::broadphase::BroadPhase::find_pairs_raised_in)):
+    /// the first search (from one side, then a pass over its pairs; or by particle, visiting
+    /// every partner on both sides) raises each particle's radius to its fastest partner's,
+    /// then the particles whose radius grew search again (see [`Grid::add_raised_pairs`]).
     pub(super) fn find_raised_pairs(
         &mut self,
         positions: &[V],
