@@ -233,9 +233,10 @@ impl Forward<'_> {
         }
     }
 
-    /// For cell `x` of row `y` of layer `z`: where the run from each of its particles ends
-    /// (its own cell and, in the same run, the next one when no seam lies between), and the
-    /// runs after it (see [`Forward`]), with their count.
+    /// For cell `x` of row `y` of layer `z`: writes the runs after it (see [`Forward`]) into
+    /// the first places of `into`, and returns where the run from each of its particles ends
+    /// (its own cell and, in the same run, the next one when no seam lies between) and how
+    /// many runs it wrote.
     #[inline]
     fn runs(
         &self,
