@@ -35,10 +35,7 @@ pub(crate) fn counting_sort(
 }
 
 /// [`counting_sort`] of the items `0..keys.len()` on the thread pool, into the same `starts`
-/// and `order`. The buckets are cut into `parts` runs of equal length; the task of each run
-/// reads every key and counts, then places, the items whose key falls in its run, in item
-/// order, so the result does not depend on `parts` or the threads. Each key is read twice per
-/// run: worth it for few runs (one per thread) over many items. `totals` is scratch.
+/// and `order` (see [`group_by_key`]). `totals` is scratch.
 pub(crate) fn counting_sort_parallel(
     keys: &[u32],
     buckets: usize,
@@ -47,100 +44,17 @@ pub(crate) fn counting_sort_parallel(
     order: &mut Vec<u32>,
     totals: &mut Vec<u32>,
 ) {
-    let width = buckets.div_ceil(parts.max(1)).max(1);
-    if buckets <= width {
+    if buckets <= buckets.div_ceil(parts.max(1)).max(1) {
         return counting_sort(keys, buckets, 0..keys.len() as u32, starts, order);
     }
-    starts.clear();
-    starts.resize(buckets + 1, 0);
-    totals.clear();
-    totals.resize(buckets.div_ceil(width), 0);
-    // each run's counts, summed up within the run: starts[c + 1] ends up the end of cell c
-    starts[1..]
-        .par_chunks_mut(width)
-        .zip(totals.par_iter_mut())
-        .enumerate()
-        .for_each(|(run, (ends, total))| {
-            let first = run * width;
-            for &k in keys {
-                if let Some(count) = (k as usize)
-                    .checked_sub(first)
-                    .and_then(|c| ends.get_mut(c))
-                {
-                    *count += 1;
-                }
-            }
-            let mut sum = 0;
-            for end in ends.iter_mut() {
-                sum += *end;
-                *end = sum;
-            }
-            *total = sum;
-        });
-    let mut before = 0;
-    for total in totals.iter_mut() {
-        (*total, before) = (before, before + *total);
-    }
-    starts[1..]
-        .par_chunks_mut(width)
-        .zip(totals.par_iter())
-        .for_each(|(ends, &before)| ends.iter_mut().for_each(|end| *end += before));
-    order.resize(keys.len(), 0);
-    place_runs(keys, width, 0, &mut starts[..buckets], order, 0);
-    // (the cursors now hold each cell's end, which is the next cell's start)
-    starts.copy_within(0..buckets, 1);
-    starts[0] = 0;
-}
-
-/// Places the items of the runs from `first_run` on whose cells' starts (`cursors`, advanced
-/// as items go in) lie in `order`, which begins at item position `base`: the runs split in
-/// halves, each half on its own task with its own part of `order`.
-fn place_runs(
-    keys: &[u32],
-    width: usize,
-    first_run: usize,
-    cursors: &mut [u32],
-    order: &mut [u32],
-    base: u32,
-) {
-    let runs = cursors.len().div_ceil(width);
-    if runs <= 1 {
-        let first = first_run * width;
-        for (i, &k) in keys.iter().enumerate() {
-            if let Some(cursor) = (k as usize)
-                .checked_sub(first)
-                .and_then(|c| cursors.get_mut(c))
-            {
-                order[(*cursor - base) as usize] = i as u32;
-                *cursor += 1;
-            }
-        }
-        return;
-    }
-    let half = runs / 2;
-    let (left, right) = cursors.split_at_mut(half * width);
-    let split = right[0] - base;
-    let (left_order, right_order) = order.split_at_mut(split as usize);
-    rayon::join(
-        || place_runs(keys, width, first_run, left, left_order, base),
-        || {
-            place_runs(
-                keys,
-                width,
-                first_run + half,
-                right,
-                right_order,
-                base + split,
-            )
-        },
-    );
+    let items = || keys.iter().enumerate().map(|(i, &k)| (k, i as u32));
+    group_by_key(&items, buckets, parts, true, starts, order, totals);
 }
 
 /// Sorts the pairs of `chunks` into `pairs` (replacing what it held): grouped by their first
-/// particle (below `n`) by counting, then each group sorted, so the result is `pairs` sorted
-/// whatever the chunks' order. The particles are cut into `parts` runs of equal length, each
-/// on its own task, which reads every chunk to count and then place its run's pairs: the
-/// result does not depend on `parts`. `counts` (one per particle) and `totals` (one per run)
+/// particle (below `n`) by counting (see [`group_by_key`], in `parts` runs, on the thread pool
+/// when more than one), then each group sorted, so the result is the pairs sorted whatever the
+/// chunks' order or `parts`. `starts` (one per particle, and one) and `totals` (one per run)
 /// are scratch.
 ///
 /// Why not a comparison sort: the 10^6 falling discs' search finds 550,000 pairs a step, and
@@ -150,110 +64,161 @@ pub(crate) fn sort_pairs_by_counting(
     chunks: &[Vec<(u32, u32)>],
     n: usize,
     parts: usize,
-    counts: &mut Vec<u32>,
+    starts: &mut Vec<u32>,
     totals: &mut Vec<u32>,
     pairs: &mut Vec<(u32, u32)>,
 ) {
-    let width = n.div_ceil(parts.max(1)).max(1);
-    counts.clear();
-    counts.resize(n, 0);
-    totals.clear();
-    totals.resize(n.div_ceil(width), 0);
-    // each run's counts, then their sums before each particle within the run
-    let count = |(run, (starts, total)): (usize, (&mut [u32], &mut u32))| {
-        let first = run * width;
-        for &(i, _) in chunks.iter().flatten() {
-            if let Some(c) = (i as usize)
-                .checked_sub(first)
-                .and_then(|c| starts.get_mut(c))
-            {
-                *c += 1;
-            }
-        }
-        let mut sum = 0;
-        for start in starts.iter_mut() {
-            (*start, sum) = (sum, sum + *start);
-        }
-        *total = sum;
-    };
+    let items = || chunks.iter().flatten().map(|&pair| (pair.0, pair));
     let parallel = parts > 1;
-    if parallel {
-        counts
-            .par_chunks_mut(width)
-            .zip(totals.par_iter_mut())
-            .enumerate()
-            .for_each(count);
-    } else {
-        counts
-            .chunks_mut(width)
-            .zip(totals.iter_mut())
-            .enumerate()
-            .for_each(count);
-    }
-    let all = totals.iter().sum::<u32>() as usize;
+    group_by_key(&items, n, parts, parallel, starts, pairs, totals);
     debug_assert_eq!(
-        all,
+        pairs.len(),
         chunks.iter().map(Vec::len).sum::<usize>(),
         "a pair's particle >= n"
     );
-    pairs.clear();
-    pairs.resize(all, (0, 0));
     crate::broadphase::keep_headroom(pairs);
-    place_pair_runs(chunks, width, 0, counts, totals, pairs, parallel);
+    let same_first = |a: &(u32, u32), b: &(u32, u32)| a.0 == b.0;
+    if parallel {
+        pairs
+            .par_chunk_by_mut(same_first)
+            .for_each(<[_]>::sort_unstable);
+    } else {
+        pairs
+            .chunk_by_mut(same_first)
+            .for_each(<[_]>::sort_unstable);
+    }
 }
 
-/// Places the pairs of the runs from `first_run` (their starts within the run in `cursors`,
-/// their counts in `totals`) into `out`, which holds exactly those runs' pairs, then sorts each
-/// particle's group: the runs split in halves, each half on its own task when `parallel`.
-fn place_pair_runs(
-    chunks: &[Vec<(u32, u32)>],
+/// The counting sort on the thread pool behind [`counting_sort_parallel`] and
+/// [`sort_pairs_by_counting`]: groups the `(key, value)` items that `items()` yields (each key
+/// below `buckets`) by key into `out`, in the order `items()` gives them within a key, with
+/// `out[starts[c] as usize..starts[c + 1] as usize]` key `c`'s values. The keys are cut into
+/// `parts` runs of equal length; the task of each run (on the thread pool when `parallel`)
+/// reads every item and counts, then places, those whose key falls in its run, so the result
+/// does not depend on `parts` or the threads. Each item is read twice per run: worth it for
+/// few runs (one per thread) over many items. `totals` is scratch.
+fn group_by_key<T, I>(
+    items: &(impl Fn() -> I + Sync),
+    buckets: usize,
+    parts: usize,
+    parallel: bool,
+    starts: &mut Vec<u32>,
+    out: &mut Vec<T>,
+    totals: &mut Vec<u32>,
+) where
+    T: Copy + Default + Send,
+    I: Iterator<Item = (u32, T)>,
+{
+    let width = buckets.div_ceil(parts.max(1)).max(1);
+    starts.clear();
+    starts.resize(buckets + 1, 0);
+    totals.clear();
+    totals.resize(buckets.div_ceil(width), 0);
+    // each run's counts, summed up within the run: starts[c + 1] ends up the end of cell c
+    let count = |(run, (ends, total)): (usize, (&mut [u32], &mut u32))| {
+        let first = run * width;
+        for (k, _) in items() {
+            if let Some(count) = (k as usize)
+                .checked_sub(first)
+                .and_then(|c| ends.get_mut(c))
+            {
+                *count += 1;
+            }
+        }
+        let mut sum = 0;
+        for end in ends.iter_mut() {
+            sum += *end;
+            *end = sum;
+        }
+        *total = sum;
+    };
+    let add = |(ends, &before): (&mut [u32], &u32)| ends.iter_mut().for_each(|end| *end += before);
+    if parallel {
+        let runs = starts[1..].par_chunks_mut(width).zip(totals.par_iter_mut());
+        runs.enumerate().for_each(count);
+    } else {
+        let runs = starts[1..].chunks_mut(width).zip(totals.iter_mut());
+        runs.enumerate().for_each(count);
+    }
+    let mut before = 0;
+    for total in totals.iter_mut() {
+        (*total, before) = (before, before + *total);
+    }
+    if parallel {
+        starts[1..]
+            .par_chunks_mut(width)
+            .zip(totals.par_iter())
+            .for_each(add);
+    } else {
+        starts[1..]
+            .chunks_mut(width)
+            .zip(totals.iter())
+            .for_each(add);
+    }
+    out.clear();
+    out.resize(starts[buckets] as usize, T::default());
+    place_runs(items, width, 0, &mut starts[..buckets], out, 0, parallel);
+    // (the cursors now hold each cell's end, which is the next cell's start)
+    starts.copy_within(0..buckets, 1);
+    starts[0] = 0;
+}
+
+/// Places the items of the runs from `first_run` on whose cells' starts (`cursors`, advanced
+/// as items go in) lie in `out`, which begins at position `base`: the runs split in halves,
+/// each half on its own task (when `parallel`) with its own part of `out`.
+fn place_runs<T, I>(
+    items: &(impl Fn() -> I + Sync),
     width: usize,
     first_run: usize,
     cursors: &mut [u32],
-    totals: &[u32],
-    out: &mut [(u32, u32)],
+    out: &mut [T],
+    base: u32,
     parallel: bool,
-) {
-    if totals.len() > 1 {
-        let half = totals.len() / 2;
-        let (left_cursors, right_cursors) = cursors.split_at_mut(half * width);
-        let (left_out, right_out) = out.split_at_mut(totals[..half].iter().sum::<u32>() as usize);
-        let (left_totals, right_totals) = totals.split_at(half);
-        let (left_first, right_first) = (first_run, first_run + half);
-        let left = move || {
-            let (cursors, totals, out) = (left_cursors, left_totals, left_out);
-            place_pair_runs(chunks, width, left_first, cursors, totals, out, parallel)
-        };
-        let right = move || {
-            let (cursors, totals, out) = (right_cursors, right_totals, right_out);
-            place_pair_runs(chunks, width, right_first, cursors, totals, out, parallel)
-        };
-        if parallel {
-            rayon::join(left, right);
-        } else {
-            left();
-            right();
+) where
+    T: Copy + Send,
+    I: Iterator<Item = (u32, T)>,
+{
+    let runs = cursors.len().div_ceil(width);
+    if runs <= 1 {
+        let first = first_run * width;
+        for (k, value) in items() {
+            if let Some(cursor) = (k as usize)
+                .checked_sub(first)
+                .and_then(|c| cursors.get_mut(c))
+            {
+                out[(*cursor - base) as usize] = value;
+                *cursor += 1;
+            }
         }
         return;
     }
-    let first = first_run * width;
-    for &pair in chunks.iter().flatten() {
-        if let Some(cursor) = (pair.0 as usize)
-            .checked_sub(first)
-            .and_then(|c| cursors.get_mut(c))
-        {
-            out[*cursor as usize] = pair;
-            *cursor += 1;
-        }
-    }
-    // (each cursor now holds the end of its particle's group)
-    let mut start = 0;
-    for &end in cursors.iter() {
-        let end = end as usize;
-        if end - start > 1 {
-            out[start..end].sort_unstable();
-        }
-        start = end;
+    let half = runs / 2;
+    let (left_cursors, right_cursors) = cursors.split_at_mut(half * width);
+    let split = right_cursors[0] - base;
+    let (left_out, right_out) = out.split_at_mut(split as usize);
+    let (left_first, right_first) = (first_run, first_run + half);
+    // (each half moves its own cursors and output in: called once)
+    let left = move || {
+        let (cursors, out) = (left_cursors, left_out);
+        place_runs(items, width, left_first, cursors, out, base, parallel)
+    };
+    let right = move || {
+        let (cursors, out) = (right_cursors, right_out);
+        place_runs(
+            items,
+            width,
+            right_first,
+            cursors,
+            out,
+            base + split,
+            parallel,
+        )
+    };
+    if parallel {
+        rayon::join(left, right);
+    } else {
+        left();
+        right();
     }
 }
 

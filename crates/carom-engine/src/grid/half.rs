@@ -153,9 +153,11 @@ impl<V: Vector> Grid<V> {
             } else {
                 1
             };
-            // (the bins' cells are not read after the walk: their memory is the counts')
-            let (counts, totals) = (&mut self.cell_of, &mut self.run_totals);
-            return sort_pairs_by_counting(buffers, n, parts, counts, totals, pairs);
+            // (the bins' cells are not read after the walk: their memory is the sort's starts)
+            let (starts, totals) = (&mut self.cell_of, &mut self.run_totals);
+            sort_pairs_by_counting(buffers, n, parts, starts, totals, pairs);
+            // (still one per particle, as the lent keys the spatial sort reads)
+            return self.cell_of.truncate(n);
         }
         gather(buffers, pairs);
         if parallel {
