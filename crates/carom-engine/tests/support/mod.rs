@@ -1,6 +1,6 @@
 //! Shared by the engine's integration tests.
 
-use carom_engine::Vector;
+use carom_engine::{Vector, World};
 
 /// A small deterministic generator (PCG constants, top 53 bits) so scenes need no `rand` and
 /// every failure reproduces exactly.
@@ -27,4 +27,27 @@ impl Lcg {
         let c = [self.range(lo, hi), self.range(lo, hi), self.range(lo, hi)];
         V::from_slice(&c)
     }
+}
+
+/// Every position and velocity finite.
+#[allow(dead_code)] // (not every test crate asks)
+pub fn all_finite<V: Vector>(w: &World<V>) -> bool {
+    let p = w.particles();
+    p.positions().iter().all(|x| x.is_finite_vector())
+        && p.velocities().iter().all(|v| v.is_finite_vector())
+}
+
+/// Largest `r_i + r_j - |x_i - x_j|` over all pairs (brute force), 0 when nothing overlaps.
+#[allow(dead_code)] // (not every test crate asks)
+pub fn max_overlap<V: Vector>(w: &World<V>) -> f64 {
+    let p = w.particles();
+    let (x, r) = (p.positions(), p.radii());
+    let mut worst = 0.0f64;
+    for i in 0..x.len() {
+        for j in i + 1..x.len() {
+            let d = (x[i] - x[j]).length_squared().sqrt();
+            worst = worst.max(r[i] + r[j] - d);
+        }
+    }
+    worst
 }
