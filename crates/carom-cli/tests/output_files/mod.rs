@@ -6,7 +6,7 @@ use quick_xml::Reader;
 use std::path::Path;
 use vtkio::model::{Attribute, DataSet, Piece};
 
-/// Reads a trajectory CSV up to its last whole frame: (frames, particles per frame).
+/// Reads a trajectory CSV up to its last whole frame; returns the step of each whole frame.
 pub fn whole_frames(text: &str, particles: usize) -> Vec<u64> {
     let mut lines = text.lines();
     assert_eq!(lines.next().unwrap(), "step,time,id,x,y,vx,vy,radius,mass");
