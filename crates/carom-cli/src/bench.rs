@@ -155,9 +155,6 @@ pub fn bench(args: &BenchArgs) -> Result<(), Failure> {
         let json = serde_json::to_string(case).map_err(|e| Failure::runtime(e.to_string()))?;
         let mut cmd = Command::new(&exe);
         cmd.args(["bench", "--case", &json]);
-        if let Some(t) = case.threads {
-            cmd.env("RAYON_NUM_THREADS", t.to_string());
-        }
         let output = cmd
             .output()
             .map_err(|e| Failure::runtime(format!("cannot start a benchmark case: {e}")))?;
@@ -340,6 +337,8 @@ fn peak_rss_bytes() -> u64 {
 fn run_case(json: &str) -> Result<(), Failure> {
     let case: Case =
         serde_json::from_str(json).map_err(|e| Failure::input(format!("--case: {e}")))?;
+    // (the case's own thread count: a case run by hand takes the same pool as under `bench`)
+    crate::input::set_threads(case.threads)?;
     let started = Instant::now();
     let scene = carom_scene::parse(&case.toml, &format!("bench:{}", case.name))?;
     let measured = match scene {

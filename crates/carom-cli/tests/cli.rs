@@ -438,6 +438,32 @@ fn bad_flags_are_rejected() {
     }
 }
 
+/// A bench case run by hand (`carom bench --case JSON`, what `carom bench` runs in each child)
+/// takes its own thread count, not every core, and refuses a count out of range.
+#[test]
+fn a_bench_case_runs_on_its_own_threads() {
+    let case = |threads: usize| {
+        serde_json::json!({
+            "group": "test", "name": "gas", "warmup": 1, "steps": 2, "threads": threads,
+            "toml": "dimensions = 2\ndt = 0.01\n[domain]\nmin = [-20.0, -20.0]\n\
+                     max = [20.0, 20.0]\nwalls = true\n[[fill]]\ncount = 100\nradius = 0.5\n\
+                     speed = 1.0\n"
+        })
+        .to_string()
+    };
+    for threads in [1, 3] {
+        let out = run_ok(&["bench", "--case", &case(threads)]);
+        let text = String::from_utf8(out.stdout).unwrap();
+        let measured: serde_json::Value = serde_json::from_str(text.trim()).unwrap();
+        assert_eq!(measured["threads"], threads, "{text}");
+    }
+    let out = carom()
+        .args(["bench", "--case", &case(0)])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
+
 #[test]
 fn bench_quick_measures_every_case() {
     let dir = tempfile::tempdir().unwrap();
