@@ -94,14 +94,19 @@ pub fn check_files_on_disk(
         }
         Traj::Vtk => check_vtk_series(dir, particles, every, ending, context),
     };
+    assert_every(&frames, every, context);
+    frames
+}
+
+/// Asserts that `steps` are 0, `every`, 2 `every`, ...
+fn assert_every(steps: &[u64], every: u64, context: &str) {
     assert!(
-        frames
+        steps
             .iter()
             .enumerate()
             .all(|(k, &s)| s == every * k as u64),
-        "{context}: {frames:?}"
+        "{context}: {steps:?}"
     );
-    frames
 }
 
 /// The frames of a trajectory CSV: whole frames only, and with `strict`, nothing after them.
@@ -182,13 +187,7 @@ pub fn check_vtk_series(
             .unwrap_or_else(|e| panic!("{context}: listed frame: {e}"));
         steps.push(step);
     }
-    assert!(
-        steps
-            .iter()
-            .enumerate()
-            .all(|(k, &s)| s == every * k as u64),
-        "{context}: {steps:?}"
-    );
+    assert_every(&steps, every, context);
     let next = steps.last().map_or(0, |s| s + every);
     for entry in std::fs::read_dir(dir.join("traj")).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();
