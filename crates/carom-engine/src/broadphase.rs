@@ -101,6 +101,32 @@ pub struct Raising<'a> {
     pub speed: &'a [f64],
     /// Particle `i`'s radius were it moving at the given speed; nondecreasing in the speed.
     pub radius_at: &'a (dyn Fn(usize, f64) -> f64 + Sync),
+    /// Particles that have not moved since an earlier search, and what it found among them: a
+    /// search may take their pairs from there instead of looking (the same pairs either way).
+    pub still: Still<'a>,
+}
+
+/// Particles that stand where they stood at an earlier search whose radii were no smaller than
+/// now, and the pairs of two of them it found (see [`Raising::still`]). Those pairs are a
+/// superset of the pairs of two of them within the radii now (positions the same, radii no
+/// larger: `is_overlapping` grows with either radius in floating point too), so a search may
+/// test them again instead of looking around the still particles: a sleeping pile's part of a
+/// step is then a pass over its old pairs, not a walk through its cells.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Still<'a> {
+    /// Per particle, whether it is still; empty when none is.
+    pub flags: &'a [bool],
+    /// Every pair of two particles still now that the earlier search found (and maybe more),
+    /// sorted.
+    pub pairs: &'a [Pair],
+}
+
+impl Still<'_> {
+    /// Whether both particles of `pair` are still.
+    #[inline]
+    pub fn both(&self, (i, j): Pair) -> bool {
+        !self.flags.is_empty() && self.flags[i as usize] & self.flags[j as usize]
+    }
 }
 
 impl std::fmt::Debug for Raising<'_> {

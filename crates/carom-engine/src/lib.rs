@@ -67,7 +67,7 @@ pub mod timing;
 pub mod vector;
 pub mod world;
 
-pub use broadphase::{BroadPhase, BroadPhaseKind, CellScratch, Pair, Raising};
+pub use broadphase::{BroadPhase, BroadPhaseKind, CellScratch, Pair, Raising, Still};
 pub use diagnostics::StepStats;
 pub use domain::Aabb;
 pub use error::EngineError;

@@ -73,12 +73,12 @@ impl<V: Vector> Grid<V> {
         pairs: &mut Vec<Pair>,
     ) {
         match self.periodic {
-            None => self.walk_cells(positions, keep, pairs, |i, j| {
+            None => self.walk_cells(positions, keep, &[], pairs, |i, j| {
                 is_overlapping(positions[i], positions[j], radii[i], radii[j])
             }),
             // (at the minimum image as the lower particle sees it, as every other search
             // tests a pair: the image is rounded differently from the other side)
-            Some(periodic) => self.walk_cells(positions, keep, pairs, |i, j| {
+            Some(periodic) => self.walk_cells(positions, keep, &[], pairs, |i, j| {
                 let (low, high) = (i.min(j), i.max(j));
                 let image = periodic.image(positions[low], positions[high]);
                 is_overlapping(positions[low], image, radii[low], radii[high])
@@ -86,11 +86,15 @@ impl<V: Vector> Grid<V> {
         }
     }
 
-    /// The walk of [`Grid::search_from_one_side`], with `overlaps(i, j)` the pair test.
-    fn walk_cells(
+    /// The walk of [`Grid::search_from_one_side`], with `overlaps(i, j)` the pair test. A
+    /// cell whose particles and those of the cells after it are all `still` (per particle;
+    /// empty when none is) is passed over: `keep` must then drop every pair of two still
+    /// particles, which the caller takes from elsewhere (see [`crate::broadphase::Still`]).
+    pub(super) fn walk_cells(
         &mut self,
         positions: &[V],
         keep: Option<&PairFilter<'_>>,
+        still: &[bool],
         pairs: &mut Vec<Pair>,
         overlaps: impl Fn(usize, usize) -> bool + Sync,
     ) {
@@ -121,6 +125,14 @@ impl<V: Vector> Grid<V> {
                     // (written in place: returned by value, the runs were copied through the
                     // stack, and the copy's wide load waited on their narrow stores)
                     let (own_end, count) = after.runs(z, y, x, &mut runs);
+                    if !still.is_empty() {
+                        let moves = |(first, last): (usize, usize)| {
+                            ids[first..last].iter().any(|&id| !still[id as usize])
+                        };
+                        if !moves((start, own_end)) && !runs[..count].iter().any(|&r| moves(r)) {
+                            continue;
+                        }
+                    }
                     for k in start..end {
                         let i = ids[k] as usize;
                         let test = |j: usize| overlaps(i, j);

@@ -16,7 +16,7 @@
 //! order up to sign, for the same bits, so no pair is added twice.
 
 use super::{for_each_near, largest, Grid};
-use crate::broadphase::{gather, keep_headroom, Pair, Raising, CHUNK, PARALLEL_SEARCH_MIN};
+use crate::broadphase::{gather, keep_headroom, Pair, Raising, Still, CHUNK, PARALLEL_SEARCH_MIN};
 use crate::response::is_overlapping;
 use crate::vector::Vector;
 use rayon::prelude::*;
@@ -39,9 +39,21 @@ impl<V: Vector> Grid<V> {
         let n = positions.len();
         let max_radius = self.bin(positions, radii);
         let layout = self.layout;
-        let Raising { speed, radius_at } = *raising;
+        let Raising {
+            speed,
+            radius_at,
+            still,
+        } = *raising;
         if self.searches_from_one_side(max_radius) {
-            self.search_from_one_side(positions, radii, None, pairs);
+            if still.flags.is_empty() {
+                self.search_from_one_side(positions, radii, None, pairs);
+            } else {
+                let keep = |pair: Pair| !still.both(pair);
+                self.walk_cells(positions, Some(&keep), still.flags, pairs, |i, j| {
+                    is_overlapping(positions[i], positions[j], radii[i], radii[j])
+                });
+                self.add_still_pairs(positions, radii, &still, pairs);
+            }
             raise_over_pairs(raised, radii, pairs, raising, n >= PARALLEL_SEARCH_MIN);
             return self.add_raised_pairs(positions, radii, raised, pairs);
         }
@@ -89,6 +101,27 @@ impl<V: Vector> Grid<V> {
         }
         gather(&self.buffers[..chunks], pairs);
         self.add_raised_pairs(positions, radii, raised, pairs);
+    }
+
+    /// Adds to `pairs` (sorted) the pairs of two `still` particles within `radii`, from the
+    /// pairs an earlier search found among them (see [`Still`]), keeping `pairs` sorted.
+    fn add_still_pairs(
+        &mut self,
+        positions: &[V],
+        radii: &[f64],
+        still: &Still<'_>,
+        pairs: &mut Vec<Pair>,
+    ) {
+        let extra = &mut self.raised_extra;
+        extra.clear();
+        // (the walk's test, with the same operands: `is_overlapping` is symmetric, bit for bit)
+        extra.extend(still.pairs.iter().copied().filter(|&(i, j)| {
+            let (i, j) = (i as usize, j as usize);
+            still.both((i as u32, j as u32))
+                && is_overlapping(positions[i], positions[j], radii[i], radii[j])
+        }));
+        keep_headroom(extra);
+        merge_into(pairs, extra);
     }
 
     /// Adds to `pairs` (sorted, found with `radii` in the current buckets) the pairs within
@@ -165,7 +198,9 @@ fn raise_over_pairs(
     raising: &Raising<'_>,
     parallel: bool,
 ) {
-    let Raising { speed, radius_at } = *raising;
+    let Raising {
+        speed, radius_at, ..
+    } = *raising;
     // (first the fastest partner's speed, -1 for none: speeds are never negative)
     raised.clear();
     raised.resize(radii.len(), -1.0);
@@ -213,7 +248,7 @@ fn merge_into(pairs: &mut Vec<Pair>, extra: &[Pair]) {
 #[cfg(test)]
 mod tests {
     use super::merge_into;
-    use crate::broadphase::{BroadPhase, CellScratch, Raising};
+    use crate::broadphase::{BroadPhase, CellScratch, Raising, Still};
     use crate::brute::BruteForce;
     use crate::domain::Aabb;
     use crate::grid::Grid;
@@ -235,6 +270,7 @@ mod tests {
         let raising = Raising {
             speed: &speeds,
             radius_at: &radius_at,
+            still: Default::default(),
         };
         let (mut expected, mut expected_raised) = (Vec::new(), Vec::new());
         let mut scratch = CellScratch::default();
@@ -272,6 +308,90 @@ mod tests {
             let mut grid = Grid::new(Some(domain), cells.as_ref().map(|c| &c[..])).unwrap();
             assert_eq!(search(&mut grid), expected, "cells {cells:?}");
         }
+    }
+
+    /// With some particles still (see [`crate::broadphase::Still`]) and their pairs taken from
+    /// a wider search, the grid finds the same pairs and raises the radii to the same bits as
+    /// a search that looks everywhere, in 2D and 3D; and it takes those pairs from the list
+    /// (a list missing one loses it: the walk does not look among still particles).
+    #[test]
+    fn still_particles_pairs_come_from_the_earlier_search_with_the_same_result() {
+        fn check<V: crate::vector::Vector>(at: impl Fn(&mut dyn FnMut() -> f64) -> V, side: f64) {
+            let mut next = crate::testing::uniform(7);
+            let n = 4000;
+            let pos: Vec<V> = (0..n).map(|_| at(&mut next)).collect();
+            let radii: Vec<f64> = (0..n)
+                .map(|i| if i % 13 == 0 { 1.2 } else { 0.8 })
+                .collect();
+            // (about two thirds still, at rest: speed 0)
+            let flags: Vec<bool> = (0..n).map(|_| next() < 0.67).collect();
+            let speeds: Vec<f64> = (0..n)
+                .map(|i| if flags[i] { 0.0 } else { next() * 20.0 })
+                .collect();
+            let radius_at = |i: usize, s: f64| radii[i] + (s * 0.02).min(radii[i]);
+            let plain = Raising {
+                speed: &speeds,
+                radius_at: &radius_at,
+                still: Default::default(),
+            };
+            // (a domain not a whole number of diameters wide: cells wider than one, which the
+            // search from one side needs)
+            let corner = |c: f64| V::from_slice(&[c; 3][..V::DIM]);
+            let domain = Aabb::new(corner(-side), corner(side)).unwrap();
+            let mut scratch = CellScratch::default();
+            let mut search = |raising: &Raising<'_>| {
+                let mut grid = Grid::new(Some(domain), None).unwrap();
+                let (mut pairs, mut raised) = (Vec::new(), Vec::new());
+                let (r, s) = (&radii[..], &mut scratch);
+                grid.find_pairs_raised_in(&pos, r, raising, &mut raised, &mut pairs, s);
+                (pairs, raised)
+            };
+            let expected = search(&plain);
+            // the earlier search's pairs among the still: with wider radii, so more of them
+            let wider: Vec<f64> = radii.iter().map(|r| r * 1.1).collect();
+            let mut earlier = Vec::new();
+            BruteForce::new().find_pairs(&pos, &wider, &mut earlier);
+            earlier.retain(|&(i, j)| flags[i as usize] && flags[j as usize]);
+            let still = Raising {
+                still: Still {
+                    flags: &flags,
+                    pairs: &earlier,
+                },
+                ..plain
+            };
+            let found = search(&still);
+            assert_eq!(found, expected);
+            // (a pair within the radii: the raise cannot add it back)
+            let mut within = Vec::new();
+            BruteForce::new().find_pairs(&pos, &radii, &mut within);
+            within.retain(|&(i, j)| flags[i as usize] && flags[j as usize]);
+            assert!(within.len() > 100, "pairs among the still");
+            let lost = within[within.len() / 2];
+            earlier.retain(|&pair| pair != lost);
+            let missing = Raising {
+                still: Still {
+                    flags: &flags,
+                    pairs: &earlier,
+                },
+                ..plain
+            };
+            let (pairs, _) = search(&missing);
+            assert!(!pairs.contains(&lost) && pairs.len() == expected.0.len() - 1);
+        }
+        check(
+            |next| DVec2::new(next() * 60.0 - 30.0, next() * 60.0 - 30.0),
+            30.5,
+        );
+        check(
+            |next| {
+                glam::DVec3::new(
+                    next() * 24.0 - 12.0,
+                    next() * 24.0 - 12.0,
+                    next() * 24.0 - 12.0,
+                )
+            },
+            12.5,
+        );
     }
 
     #[test]

@@ -120,6 +120,14 @@ pub struct World<V: Vector> {
     sleepers: Sleepers,
     /// Positions at the start of the step (only when particles may sleep).
     start: Vec<V>,
+    /// The last step's contact candidates of two sleepers, sorted (see [`crate::Still`]).
+    sleeping_pairs: Vec<Pair>,
+    /// Per slot, whether it slept through the last step and stands where it stood at its
+    /// search, at rest (see [`crate::Still`]); empty when no slot does.
+    still: Vec<bool>,
+    /// Whether `sleeping_pairs` are every pair within reach of two of the last step's sleepers
+    /// (the lecture's step keeps fewer), in the slots of now (no spatial sort since).
+    sleeping_pairs_hold: bool,
     /// Every particle slept through the last step and nothing has woken any since: the next
     /// step would find them all asleep again, so it skips straight to the end.
     all_asleep: bool,
@@ -224,6 +232,7 @@ impl<V: Vector> World<V> {
         self.sleepers.wake_all();
         self.all_asleep = false;
         self.asleep_overlap = 0.0;
+        self.sleeping_pairs_hold = false;
     }
 
     /// Particles asleep in the last step (see [`crate::sleep`]).
@@ -331,6 +340,7 @@ impl<V: Vector> World<V> {
         };
         self.sleepers.wake_all();
         self.all_asleep = false;
+        self.sleeping_pairs_hold = false;
         for (slot, &id) in storage_order.iter().enumerate() {
             let id = id as usize;
             self.store.position[slot] = particles.position[id];

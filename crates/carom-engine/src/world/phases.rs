@@ -1,7 +1,7 @@
 //! One world's part in each phase of a step (see [`crate::step`]).
 
 use super::*;
-use crate::broadphase::{gather, keep_headroom, Pair, Raising};
+use crate::broadphase::{gather, keep_headroom, Pair, Raising, Still};
 use crate::diagnostics::StepStats;
 use crate::frontier::{self, Stamps};
 use crate::memory::Memory;
@@ -36,6 +36,8 @@ impl<V: Vector> Phases for World<V> {
             self.config.domain,
         );
         self.memory.remap(self.sorter.new_slot_of());
+        // (the sleepers' marks, their pairs and the start positions are in the old slots)
+        self.sleeping_pairs_hold = false;
     }
 
     fn find_contacts(&mut self) {
@@ -53,12 +55,12 @@ impl<V: Vector> Phases for World<V> {
             self.fastest_move = 0.0;
             return;
         }
-        self.find_pairs(parallel);
+        let within_reach = self.find_pairs(parallel);
         match sleep {
             Some(settings) => {
                 // (rest times from the first step that may sleep on: see `World::rest`)
                 self.rest.resize(self.store.len(), 0.0);
-                self.mark_sleepers(settings.time)
+                self.mark_sleepers(settings.time, within_reach)
             }
             None => self.sleepers.wake_all(),
         }
@@ -227,11 +229,14 @@ impl<V: Vector> Phases for World<V> {
 
 impl<V: Vector> World<V> {
     /// This step's pairs within reach (see [`solver::reach`]), the reaches raised to the
-    /// partners' speeds when contacts can rest (see [`solver::raise_to_partners`]).
-    fn find_pairs(&mut self, parallel: bool) {
+    /// partners' speeds when contacts can rest (see [`solver::raise_to_partners`]); returns
+    /// whether they are every pair within reach (the lecture's step keeps only those that
+    /// close in).
+    fn find_pairs(&mut self, parallel: bool) -> bool {
         let (dt, gravity) = (self.config.dt, self.config.gravity);
         let fall = gravity.length_squared().sqrt() * dt;
         let raises = solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes);
+        self.mark_still(parallel);
         let p = &self.store;
         self.reach.resize(p.len(), 0.0);
         self.speed.resize(if raises { p.len() } else { 0 }, 0.0);
@@ -279,6 +284,10 @@ impl<V: Vector> World<V> {
                     radius_at: &|i, partner_speed| {
                         solver::reach(radius[i], partner_speed + fall, dt)
                     },
+                    still: Still {
+                        flags: &self.still,
+                        pairs: &self.sleeping_pairs,
+                    },
                 };
                 let (reach, raised) = (&self.reach, &mut self.raised);
                 (self.broad_phase).find_pairs_raised_in(
@@ -290,6 +299,7 @@ impl<V: Vector> World<V> {
                     scratch,
                 );
                 std::mem::swap(&mut self.reach, &mut self.raised);
+                true
             }
             Some(lecture) => {
                 let (periodic, velocity, reach) = (self.periodic, &p.velocity, &self.reach);
@@ -309,7 +319,29 @@ impl<V: Vector> World<V> {
                     scratch,
                     &mut self.pairs_kept,
                 );
+                false
             }
+        }
+    }
+
+    /// Marks the slots that slept through the last step and have not moved since its search
+    /// (see [`Still`]): their reaches are no larger than then (at rest now), so the pairs
+    /// among them are among that search's. None when those pairs were not kept.
+    fn mark_still(&mut self, parallel: bool) {
+        self.still.clear();
+        let n = self.store.len();
+        if !self.sleeping_pairs_hold || self.sleepers.count == 0 || self.start.len() != n {
+            return;
+        }
+        let (p, asleep, start) = (&self.store, &self.sleepers.asleep, &self.start);
+        let still = |s: usize| asleep[s] && p.velocity[s] == V::ZERO && p.position[s] == start[s];
+        if parallel {
+            (0..n)
+                .into_par_iter()
+                .map(still)
+                .collect_into_vec(&mut self.still);
+        } else {
+            self.still.extend((0..n).map(still));
         }
     }
 
@@ -359,7 +391,7 @@ impl<V: Vector> World<V> {
     /// Marks this step's sleepers (see [`crate::sleep`]), stops them, and drops the contacts
     /// between two of them from this step's candidates; keeps the positions the step starts
     /// from.
-    fn mark_sleepers(&mut self, time: f64) {
+    fn mark_sleepers(&mut self, time: f64, within_reach: bool) {
         let (p, planes, periodic) = (&self.store, &self.planes, self.periodic);
         let up = sleep::up(self.config.gravity);
         let on_plane = |s: usize| sleep::rests_on_plane(p.position[s], p.radius[s], planes, up);
@@ -380,6 +412,8 @@ impl<V: Vector> World<V> {
         self.start.clear();
         self.start.extend_from_slice(&self.store.position);
         self.asleep_overlap = 0.0;
+        self.sleeping_pairs.clear();
+        self.sleeping_pairs_hold = within_reach;
         if asleep == 0 {
             return;
         }
@@ -403,9 +437,17 @@ impl<V: Vector> World<V> {
                 *v = V::ZERO;
             }
         }
-        // (a pair with one particle awake stays: the sleeper is a fixed obstacle in it)
-        self.pairs
-            .retain(|&(i, j)| !(sleepers.sleeps(i as usize) && sleepers.sleeps(j as usize)));
+        // (a pair with one particle awake stays: the sleeper is a fixed obstacle in it; the
+        // pairs of two sleepers are kept for the next step's search, see `World::mark_still`)
+        let sleeping = &mut self.sleeping_pairs;
+        self.pairs.retain(|&(i, j)| {
+            let both = sleepers.sleeps(i as usize) && sleepers.sleeps(j as usize);
+            if both && within_reach {
+                sleeping.push((i, j));
+            }
+            !both
+        });
+        keep_headroom(sleeping);
     }
 
     /// This step's contacts, for the solver.
