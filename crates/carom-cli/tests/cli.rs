@@ -485,7 +485,7 @@ fn bench_quick_measures_every_case() {
         .count();
     assert!(breakdowns > 0, "{table}");
     assert!(
-        table.contains("velocity") && table.contains("broad phase"),
+        table.contains("velocity") && table.contains("bin") && table.contains("search"),
         "{table}"
     );
     // and the solver's work beside its time
@@ -507,7 +507,8 @@ fn bench_quick_measures_every_case() {
             names,
             [
                 "sort",
-                "broad phase",
+                "bin",
+                "search",
                 "rows",
                 "velocity",
                 "motion",

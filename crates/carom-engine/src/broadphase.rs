@@ -9,6 +9,7 @@
 
 use crate::vector::Vector;
 use rayon::prelude::*;
+use std::time::Duration;
 
 /// A contact candidate: two particle ids, lower first.
 pub type Pair = (u32, u32);
@@ -65,6 +66,12 @@ pub trait BroadPhase<V: Vector>: Send + Sync {
         scratch: &mut CellScratch,
     ) {
         search_raise_search(self, positions, radii, raising, raised, pairs, scratch);
+    }
+
+    /// The time spent binning (laying cells out and filling them) since the last call, for
+    /// [`crate::PhaseTimes::bin`]; zero for a search without cells.
+    fn take_bin_time(&mut self) -> Duration {
+        Duration::ZERO
     }
 
     /// Short name for reports ("brute", "grid").

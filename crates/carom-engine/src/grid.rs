@@ -33,6 +33,7 @@ use crate::periodic::Periodic;
 use crate::response::is_overlapping;
 use crate::vector::Vector;
 use rayon::prelude::*;
+use std::time::{Duration, Instant};
 
 /// Hard cap on the total cell count (memory: 4 bytes per cell).
 pub const MAX_CELLS: u64 = 1 << 28;
@@ -53,6 +54,8 @@ pub struct Grid<V> {
     raised_extra: Vec<Pair>,
     overflow: SpatialHash,
     escaped: bool,
+    /// Time spent binning since [`BroadPhase::take_bin_time`] last took it.
+    bin_time: Duration,
     /// Periodic axes: neighbour cells wrap around them, pairs are tested at the minimum image.
     periodic: Option<Periodic>,
 }
@@ -207,6 +210,7 @@ impl<V: Vector> Grid<V> {
             raised_extra: Vec::new(),
             overflow: SpatialHash::new(),
             escaped: false,
+            bin_time: Duration::ZERO,
             periodic: None,
         })
     }
@@ -275,10 +279,12 @@ impl<V: Vector> Grid<V> {
     /// [`Grid::too_many_outside`]); returns the largest of `radii`, which every search's reach
     /// adds.
     fn bin(&mut self, positions: &[V], radii: &[f64]) -> f64 {
+        let binning = Instant::now();
         self.escaped = false;
         let max_radius = largest(radii);
         self.plan_layout(positions, max_radius);
         self.build_buckets(positions);
+        self.bin_time += binning.elapsed();
         max_radius
     }
 
@@ -541,6 +547,10 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
         self.lend(scratch);
         self.find_raised_pairs(positions, radii, raising, raised, pairs);
         self.lend(scratch);
+    }
+
+    fn take_bin_time(&mut self) -> Duration {
+        std::mem::take(&mut self.bin_time) + BroadPhase::<V>::take_bin_time(&mut self.overflow)
     }
 
     fn name(&self) -> &'static str {

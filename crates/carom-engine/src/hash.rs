@@ -15,6 +15,7 @@ use crate::grid::widened_reach;
 use crate::response::is_overlapping;
 use crate::vector::Vector;
 use rayon::prelude::*;
+use std::time::{Duration, Instant};
 
 /// The unbounded hash broad phase.
 #[derive(Debug, Default)]
@@ -24,6 +25,8 @@ pub struct SpatialHash {
     bucket_start: Vec<u32>,
     ids: Vec<u32>,
     buffers: Vec<Vec<Pair>>,
+    /// Time spent binning since [`BroadPhase::take_bin_time`] last took it.
+    bin_time: Duration,
 }
 
 /// Cell size and table size of one step.
@@ -88,6 +91,7 @@ const MAX_VISITED: usize = 64;
 
 impl<V: Vector> BroadPhase<V> for SpatialHash {
     fn find_pairs(&mut self, positions: &[V], radii: &[f64], pairs: &mut Vec<Pair>) {
+        let binning = Instant::now();
         let n = positions.len();
         let max_radius = crate::grid::largest(radii);
         let cell = (2.0 * max_radius).max(f64::MIN_POSITIVE);
@@ -117,6 +121,7 @@ impl<V: Vector> BroadPhase<V> for SpatialHash {
             &mut self.bucket_start,
             &mut self.ids,
         );
+        self.bin_time += binning.elapsed();
 
         let (starts, ids) = (&self.bucket_start, &self.ids);
         collect_pairs(n, &mut self.buffers, pairs, |i, out| {
@@ -155,6 +160,10 @@ impl<V: Vector> BroadPhase<V> for SpatialHash {
                 }
             }
         });
+    }
+
+    fn take_bin_time(&mut self) -> Duration {
+        std::mem::take(&mut self.bin_time)
     }
 
     fn name(&self) -> &'static str {

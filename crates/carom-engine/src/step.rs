@@ -42,7 +42,7 @@ pub(crate) fn advance(stepper: &mut impl Phases) -> StepStats {
     let mut clock = Lap::start();
     stepper.sort_along_space();
     let sort = clock.lap();
-    let rows_before = stepper.times().rows;
+    let (rows_before, bin_before) = (stepper.times().rows, stepper.times().bin);
     stepper.find_contacts();
     let find = clock.lap();
     let solve = stepper.integrate();
@@ -55,8 +55,9 @@ pub(crate) fn advance(stepper: &mut impl Phases) -> StepStats {
     let times = stepper.times();
     times.steps += 1;
     times.sort += sort;
-    // (find_contacts timed its rows; the broad phase is the rest)
-    times.broad_phase += find.saturating_sub(times.rows - rows_before);
+    // (find_contacts timed its rows and its binning; the search is the rest)
+    let timed_inside = (times.rows - rows_before) + (times.bin - bin_before);
+    times.search += find.saturating_sub(timed_inside);
     times.motion += solve.motion;
     times.velocity += integrate.saturating_sub(solve.motion);
     times.position += position;

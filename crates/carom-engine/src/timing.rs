@@ -9,21 +9,26 @@ use std::time::{Duration, Instant};
 /// the world was built or [`crate::World::reset_phase_times`] was called.
 ///
 /// The phases, in step order (see [`crate::step`]): `sort` (reordering along space every few
-/// steps), `broad_phase` (each particle's reach, the grid/hash/brute candidates, plane
-/// candidates, who sleeps, planning the blocks), `rows` (the lecture's detection on every
-/// candidate and the warm start from remembered impulses), `velocity` (the velocity phase's
-/// sweeps: the lecture's response, resting impulses, restitution), `motion` (gravity, the move
-/// `x += v dt` and re-placing the rows between substeps), `position` (the position phase, planes
-/// included: plane rules run inside the sweeps, so they have no figure of their own) and
-/// `bookkeeping` (remembering impulses, sleep, the step's tallies).
+/// steps), `bin` (laying the grid's or the hash's cells out over the particles and the counting
+/// sort that fills them: issue 14's "bin"; zero for brute force), `search` (the rest of finding
+/// the contact candidates: each particle's reach, the pair search and its raise, plane
+/// candidates, who sleeps, planning the blocks; `bin` and `search` together are the broad
+/// phase), `rows` (the lecture's detection on every candidate and the warm start from
+/// remembered impulses), `velocity` (the velocity phase's sweeps: the lecture's response,
+/// resting impulses, restitution), `motion` (gravity, the move `x += v dt` and re-placing the
+/// rows between substeps), `position` (the position phase, planes included: plane rules run
+/// inside the sweeps, so they have no figure of their own) and `bookkeeping` (remembering
+/// impulses, sleep, the step's tallies).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PhaseTimes {
     /// Steps timed.
     pub steps: u64,
     /// Reordering along space (and, split over processes, migration).
     pub sort: Duration,
-    /// Finding the contact candidates.
-    pub broad_phase: Duration,
+    /// Binning the particles into the broad phase's cells.
+    pub bin: Duration,
+    /// The rest of finding the contact candidates.
+    pub search: Duration,
     /// Building and warm-starting the contact rows.
     pub rows: Duration,
     /// The velocity phase's sweeps.
@@ -39,20 +44,20 @@ pub struct PhaseTimes {
 impl PhaseTimes {
     /// The sum of every phase.
     pub fn total(&self) -> Duration {
-        self.sort
-            + self.broad_phase
-            + self.rows
-            + self.velocity
-            + self.motion
-            + self.position
-            + self.bookkeeping
+        self.phases().iter().map(|&(_, time)| time).sum()
+    }
+
+    /// The broad phase: `bin` and `search`.
+    pub fn broad_phase(&self) -> Duration {
+        self.bin + self.search
     }
 
     /// `(name, time)` for every phase, in step order.
-    pub fn phases(&self) -> [(&'static str, Duration); 7] {
+    pub fn phases(&self) -> [(&'static str, Duration); 8] {
         [
             ("sort", self.sort),
-            ("broad phase", self.broad_phase),
+            ("bin", self.bin),
+            ("search", self.search),
             ("rows", self.rows),
             ("velocity", self.velocity),
             ("motion", self.motion),

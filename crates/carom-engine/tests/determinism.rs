@@ -597,4 +597,11 @@ fn phase_times_count_steps_and_change_no_bits() {
     // (durations themselves are the machine's business: no assertion on how long)
     let total: std::time::Duration = ta.phases().iter().map(|(_, t)| *t).sum();
     assert_eq!(total, ta.total());
+    assert_eq!(ta.broad_phase(), ta.bin + ta.search);
+    // the grid bins every step, brute force never
+    let zero = std::time::Duration::ZERO;
+    assert!(ta.bin > zero && ta.search > zero);
+    let mut brute = walled(&bodies, BroadPhaseKind::Brute, None);
+    brute.step();
+    assert!(brute.phase_times().bin == zero && brute.phase_times().search > zero);
 }

@@ -56,6 +56,7 @@ impl<V: Vector> Phases for World<V> {
             return;
         }
         let within_reach = self.find_pairs(parallel);
+        self.phase_times.bin += self.broad_phase.take_bin_time();
         match sleep {
             Some(settings) => {
                 // (rest times from the first step that may sleep on: see `World::rest`)

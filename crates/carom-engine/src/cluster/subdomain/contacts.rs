@@ -116,6 +116,7 @@ impl<V: Vector> Subdomain<V> {
     /// then the own plane candidates, the rows, and the remembered impulses.
     pub(super) fn find_contacts<T: Transport + ?Sized>(&mut self, link: &mut Link<'_, T>) {
         self.find_pairs(link);
+        self.phase_times.bin += self.broad_phase.take_bin_time();
         self.mark_sleepers(link);
         self.find_plane_contacts();
         self.prepare_pair_rows();
