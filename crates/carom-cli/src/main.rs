@@ -1,5 +1,6 @@
 //! `carom`: run particle collision scenes from the command line.
 
+mod allocator;
 mod bench;
 mod cluster;
 mod driver;
@@ -56,6 +57,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    allocator::fix_mmap_threshold();
     let cli = Cli::parse();
     #[cfg(feature = "mpi")]
     cluster::mpi::start();
