@@ -28,11 +28,38 @@ fn trace<V: Vector>(mut w: World<V>, steps: u64, every: u64) {
     }
 }
 
-fn main() {
-    let a: Vec<String> = std::env::args().collect();
-    let every: u64 = a.get(2).map_or(50, |s| s.parse().unwrap());
-    match load(std::path::Path::new(&a[1])).unwrap() {
-        AnyScene::Two(s) => trace(s.clone().into_world().unwrap(), s.steps, every),
-        AnyScene::Three(s) => trace(s.clone().into_world().unwrap(), s.steps, every),
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("trace: error: {message}");
+            std::process::ExitCode::from(2)
+        }
     }
+}
+
+/// Reads the arguments and the scene, then traces it; bad input is a message, not a panic.
+fn run() -> Result<(), String> {
+    let a: Vec<String> = std::env::args().collect();
+    let path = a.get(1).ok_or("usage: trace SCENE [EVERY]")?;
+    let every: u64 = match a.get(2) {
+        None => 50,
+        Some(s) => s.parse().ok().filter(|&e| e > 0).ok_or(format!(
+            "EVERY: {s:?} is not a whole number of steps above 0"
+        ))?,
+    };
+    let scene = load(std::path::Path::new(path)).map_err(|e| e.to_string())?;
+    match scene {
+        AnyScene::Two(s) => trace(
+            s.clone().into_world().map_err(|e| format!("{path}: {e}"))?,
+            s.steps,
+            every,
+        ),
+        AnyScene::Three(s) => trace(
+            s.clone().into_world().map_err(|e| format!("{path}: {e}"))?,
+            s.steps,
+            every,
+        ),
+    }
+    Ok(())
 }
