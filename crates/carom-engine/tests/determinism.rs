@@ -302,8 +302,9 @@ fn golden_hash_2d() {
     // when the shock sweep began to run block after block and to lift along gravity; and when
     // the restitution pass left met impacts' changes within the residual tolerance undone; and
     // when planes took every particle within a radius beyond its reach as a candidate; and when
-    // reaches were raised to the partners' speeds)
-    const GOLDEN: u64 = 0xe2e2_596d_f367_0b90;
+    // reaches were raised to the partners' speeds; and when a pair impact's restitution became
+    // `k` times the impulse that stopped it, capped at its isolated bounce)
+    const GOLDEN: u64 = 0xc660_6bcc_fbb4_ff88;
     let mut w = golden_scene::<DVec2>();
     for _ in 0..200 {
         w.step();
@@ -317,8 +318,9 @@ fn golden_hash_3d() {
     // (changed when the restitution pass stopped chasing resting contacts' misses under the
     // resting speed, and when it left met impacts' changes within the residual tolerance
     // undone, and when planes took every particle within a radius beyond its reach as a
-    // candidate)
-    const GOLDEN: u64 = 0x4786_cb8f_6a5d_f157;
+    // candidate, and when a pair impact's restitution became `k` times the impulse that
+    // stopped it, capped at its isolated bounce)
+    const GOLDEN: u64 = 0x989b_cbed_44e3_d6d0;
     let mut w = golden_scene::<DVec3>();
     for _ in 0..200 {
         w.step();

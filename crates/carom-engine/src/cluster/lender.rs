@@ -48,7 +48,12 @@ pub(super) fn write_row<V: Vector>(w: &mut Writer, row: &Row<V>, record: &RowRec
         .f64(row.allowance)
         .f64(record.distance)
         .f64(row.delivered)
-        .u32(row.touching as u32 | (row.met as u32) << 1 | (row.impact as u32) << 2);
+        .u32(
+            row.touching as u32
+                | (row.met as u32) << 1
+                | (row.impact as u32) << 2
+                | (row.kicked as u32) << 3,
+        );
 }
 
 /// Decodes a solver row.
@@ -71,6 +76,7 @@ pub(super) fn read_row<V: Vector>(r: &mut Reader) -> (Row<V>, RowRecord) {
         touching: bits & 1 != 0,
         met: bits & 2 != 0,
         impact: bits & 4 != 0,
+        kicked: bits & 8 != 0,
     };
     let record = RowRecord {
         mass,

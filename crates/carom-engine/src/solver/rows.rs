@@ -43,12 +43,14 @@ pub(crate) struct Row<V> {
     /// Accumulated impulse this step, >= 0 (mass x length / time).
     pub impulse: f64,
     /// For an impact, the speed its restitution pass aims to separate at (`k` times its
-    /// approach speed); 0 for a resting contact.
+    /// approach speed at the start of the step); 0 for a resting contact.
     pub bounce: f64,
     /// How fast a resting contact may still approach this step: the gap between the surfaces
     /// over `dt` (0 when they overlap, infinite for coincident centres). A pair a hair apart
     /// stays in the solver as a *speculative* contact (as in Box2D), so the position phase
-    /// opening a contact by a rounding error does not drop a pile's support for a step.
+    /// opening a contact by a rounding error does not drop a pile's support for a step. Once
+    /// the restitution pass has `kicked` an impact (which may not approach at all then), the
+    /// most impulse it takes there instead (see [`kick_ceiling`](super::rules::kick_ceiling)).
     pub allowance: f64,
     /// The normal impulse `j` gave `i` this step, summed over every application (mass x
     /// length / time; positive pushes apart): the collisional virial's `J_ij` (see
@@ -58,6 +60,8 @@ pub(crate) struct Row<V> {
     pub met: bool,
     /// True once the lecture's response answered an approach of this pair this step.
     pub impact: bool,
+    /// True once the restitution pass has set a met impact's ceiling (at its first visit).
+    pub kicked: bool,
     /// The lecture's detection at the start of the velocity phase, with distinct centres (a
     /// pair with coincident centres has no direction to respond along).
     pub touching: bool,

@@ -45,7 +45,7 @@ pub(super) fn shock<V: Vector, E: Exchange<V>>(
         // (a sleeping particle is fixed already: the rule for a pair holds it)
         let asleep = row.inverse_mass.contains(&0.0);
         if height.abs() < SHOCK_MIN_HEIGHT || asleep {
-            return accumulate_pair(row, vi, vj, Pass::Relax, 0.0);
+            return accumulate_pair(row, vi, vj, Pass::Relax, 0.0, 0.0);
         }
         let vn = row.normal.dot(*vi - *vj);
         let short = -row.allowance - vn;

@@ -18,7 +18,7 @@ use std::time::Instant;
 /// al. 2019, "Small steps in physics simulation"), with the lecture's formula for impacts:
 ///
 /// 1. each overlapping contact approaching at least at the resting speed (and not resting
-///    last step) is an *impact*, and remembers the speed `k s` it is to separate at;
+///    last step) is an *impact*, and remembers the speed `k s` it would separate at alone;
 /// 2. `substeps` times, with `h = dt / substeps`: `v += g h`; the accumulated impulses are
 ///    applied (from the last step at first: warm starting); *relax* sweeps of accumulated
 ///    impulses until no contact approaches (a gap may close, no more); `x += v h`; the
@@ -26,10 +26,12 @@ use std::time::Instant;
 ///    (any substep's, in a step without impacts), a shock sweep follows (see [`shock`]). What
 ///    the last relax leaves is remembered for the next step;
 /// 3. *restitution* (when there were impacts): sweeps until every impact separates at its
-///    `k s` and no other contact misses its goal by more than the resting speed (what the
-///    impacts push into; smaller misses are the relax's, left to the next step). An isolated
-///    impact so gets exactly the lecture's formula, and one against a pile at rest bounces off
-///    it as off a wall.
+///    `k s`, a pair impact pushing back no more than `k` times the impulse that stopped it
+///    (see [`kick_ceiling`]), and no other contact misses its goal by more than the resting
+///    speed (what the impacts push into;
+///    smaller misses are the relax's, left to the next step). An isolated impact so gets
+///    exactly the lecture's formula, one against a pile at rest bounces off it as off a wall,
+///    and impacts pressing on each other make no energy.
 ///
 /// Small steps carry a pile's weight far better than as many sweeps in one step: each
 /// substep's error is `h^2` small.
@@ -315,7 +317,7 @@ pub(super) fn relax<V: Vector, E: Exchange<V>>(
         if lecture_pairs {
             lecture_pair(row, record, vi, vj, k).into()
         } else {
-            accumulate_pair(row, vi, vj, pass, resting)
+            accumulate_pair(row, vi, vj, pass, resting, k)
         }
     };
     let plane_rule = |row: &mut PlaneRow<V>, v: &mut V| {
