@@ -49,6 +49,28 @@ fn a_head_on_collision_counts_once_and_its_virial_is_the_impulse_times_the_dista
     }
 }
 
+/// Under gravity (where contacts can rest, and an impact is solved by impulses instead of the
+/// lecture's response), a head-on collision counts once too, at every `k`: at `k = 0` it once
+/// counted none (an impact was counted by its bounce speed, `k s`).
+#[test]
+fn a_head_on_collision_under_gravity_counts_once_at_every_k() {
+    for k in [0.0, 0.5, 0.9] {
+        let mut world = World::builder()
+            .dt(0.01)
+            .gravity(DVec2::new(0.0, -9.81))
+            .restitution(k)
+            .particle(DVec2::new(-0.995, 0.0), DVec2::X, 1.0, 1.0)
+            .particle(DVec2::new(0.995, 0.0), -DVec2::X, 1.0, 1.0)
+            .build()
+            .unwrap();
+        world.observe();
+        let stats = world.step();
+        assert_eq!(stats.collisions, 1, "k = {k}");
+        world.step();
+        assert_eq!(world.tally().collisions, 1, "k = {k}");
+    }
+}
+
 #[test]
 fn a_step_measures_the_overlap_it_starts_from_over_every_pair_it_finds() {
     // 0.1 of r deep at the start; the position phase leaves them the slop deep, which is

@@ -52,7 +52,8 @@ pub(super) fn write_row<V: Vector>(w: &mut Writer, row: &Row<V>, record: &RowRec
             row.touching as u32
                 | (row.met as u32) << 1
                 | (row.impact as u32) << 2
-                | (row.kicked as u32) << 3,
+                | (row.kicked as u32) << 3
+                | (row.struck as u32) << 4,
         );
 }
 
@@ -77,6 +78,7 @@ pub(super) fn read_row<V: Vector>(r: &mut Reader) -> (Row<V>, RowRecord) {
         met: bits & 2 != 0,
         impact: bits & 4 != 0,
         kicked: bits & 8 != 0,
+        struck: bits & 16 != 0,
     };
     let record = RowRecord {
         mass,

@@ -20,6 +20,12 @@
 //! impulse is equal and opposite, so momentum is conserved; with `k = 1` every contact is an
 //! impact, so kinetic energy is too.
 //!
+//! Under gravity with `k < 1` the step is substepped (see `velocity::integrate`): the relax
+//! substeps stop every impact as a resting contact, and a restitution pass after them sends it
+//! apart at `k` times its approach (the lecture's formula, for an isolated pair), but a pair
+//! never with more than `k` times the impulse that stopped it (Poisson's law: see
+//! `rules::kick_ceiling`), so impacts that press on each other make no energy.
+//!
 //! **Shock propagation** (Guendelman, Bridson and Fedkiw 2003). Equal and opposite impulses
 //! carry a pile's weight up a chain of `n` contacts in about `n^2` sweeps, so a stack a hundred
 //! discs tall would sink for hundreds of steps before its impulses, remembered from step to

@@ -60,6 +60,10 @@ pub(crate) struct Row<V> {
     pub met: bool,
     /// True once the lecture's response answered an approach of this pair this step.
     pub impact: bool,
+    /// True when the step found this pair an impact (approaching at least at the resting
+    /// speed, not resting last step), whatever its `k`: at `k = 0` its `bounce` is 0, and it
+    /// still counts as a collision once it meets (see [`Row::collided`]).
+    pub struck: bool,
     /// True once the restitution pass has set a met impact's ceiling (at its first visit).
     pub kicked: bool,
     /// The lecture's detection at the start of the velocity phase, with distinct centres (a
@@ -156,7 +160,7 @@ impl<V: Vector> Row<V> {
     /// lecture's response, or it was an impact (see [`integrate`](super::velocity::integrate)) that met.
     #[inline]
     pub fn collided(&self) -> bool {
-        self.impact || (self.bounce > 0.0 && self.met)
+        self.impact || (self.struck && self.met)
     }
 }
 

@@ -422,6 +422,7 @@ pub(super) fn classify<V: Vector, E: Exchange<V>>(
         // it bounces with instead of eating it.
         let fast = speed >= resting && row.impulse == 0.0;
         row.bounce = if fast { k * speed } else { 0.0 };
+        row.struck = fast;
         row.allowance *= substeps;
         (row.bounce > 0.0).into()
     };
