@@ -132,9 +132,9 @@ fn quiet(pass: Pass, bounce: f64, met: bool, dv: f64, resting: f64) -> bool {
 
 /// The accumulated-impulse rule for one pair in `pass`: push (never pull) until the pair
 /// approaches no faster than its allowance, and in the restitution pass push a met impact
-/// apart to its bounce, up to its [`kick_ceiling`] (`k`: the pairs' restitution). `resting` is the resting speed:
-/// changes of the relative speed up to [`RESIDUAL_FRACTION`] of it keep no sweeps going (0:
-/// any change does), and see [`quiet`].
+/// apart to its bounce, up to its [`kick_ceiling`] (`k`: the pairs' restitution). `resting` is
+/// the resting speed: changes of the relative speed up to [`RESIDUAL_FRACTION`] of it keep no
+/// sweeps going (0: any change does), and see [`quiet`].
 #[inline]
 pub(super) fn accumulate_pair<V: Vector>(
     row: &mut Row<V>,
