@@ -8,7 +8,7 @@ mod support;
 
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::{Aabb, Vector, World};
-use support::Lcg;
+use support::{scatter, Lcg};
 
 const DT: f64 = 1.0 / 60.0;
 const G: f64 = 9.81;
@@ -47,23 +47,21 @@ fn pour<V: Vector>(n: usize, half: f64, seed: u64) -> World<V> {
         .restitution(0.5)
         .domain(Aabb::new(V::from_slice(&[-half; 3]), V::from_slice(&[half; 3])).unwrap())
         .walls(0.5);
-    let mut placed: Vec<V> = Vec::new();
-    while placed.len() < n {
+    let position = |rng: &mut Lcg| {
         let c: Vec<f64> = (0..3)
             .map(|a| {
                 let lo = if a == 1 { 0.0 } else { -half + 1.0 };
                 lo + rng.next() * (half - 1.0 - lo)
             })
             .collect();
-        let x = V::from_slice(&c);
-        if placed
-            .iter()
-            .all(|&y| (x - y).length_squared() >= 4.0 * 1.0001)
-        {
-            let v: Vec<f64> = (0..3).map(|_| 7.0 * (rng.next() - 0.5)).collect();
-            b = b.particle(x, V::from_slice(&v), 1.0, 1.0);
-            placed.push(x);
-        }
+        V::from_slice(&c)
+    };
+    let velocity = |rng: &mut Lcg| {
+        let v: Vec<f64> = (0..3).map(|_| 7.0 * (rng.next() - 0.5)).collect();
+        V::from_slice(&v)
+    };
+    for (x, v) in scatter(n, &mut rng, position, velocity) {
+        b = b.particle(x, v, 1.0, 1.0);
     }
     b.build().unwrap()
 }
@@ -163,25 +161,22 @@ fn a_wide_3d_pour_falls_asleep_part_by_part() {
             .unwrap(),
         )
         .walls(0.5);
-    let mut placed: Vec<DVec3> = Vec::new();
-    while placed.len() < 5000 {
-        let x = DVec3::new(
+    let position = |rng: &mut Lcg| {
+        DVec3::new(
             rng.range(-11.0, 11.0),
             rng.range(-11.0, 107.0),
             rng.range(-11.0, 11.0),
-        );
-        if placed
-            .iter()
-            .all(|&y| (x - y).length_squared() >= 4.0 * 1.0001)
-        {
-            let v = DVec3::new(
-                rng.range(-3.5, 3.5),
-                rng.range(-3.5, 3.5),
-                rng.range(-3.5, 3.5),
-            );
-            b = b.particle(x, v, 1.0, 1.0);
-            placed.push(x);
-        }
+        )
+    };
+    let velocity = |rng: &mut Lcg| {
+        DVec3::new(
+            rng.range(-3.5, 3.5),
+            rng.range(-3.5, 3.5),
+            rng.range(-3.5, 3.5),
+        )
+    };
+    for (x, v) in scatter(5000, &mut rng, position, velocity) {
+        b = b.particle(x, v, 1.0, 1.0);
     }
     comes_to_rest(b.build().unwrap(), 1200, false);
 }
@@ -432,20 +427,12 @@ fn lively_box(n: usize, half: f64, k: f64, seed: u64) -> World<DVec2> {
         .restitution(k)
         .domain(Aabb::new(DVec2::splat(-half), DVec2::splat(half)).unwrap())
         .walls(k);
-    let mut placed: Vec<DVec2> = Vec::new();
-    while placed.len() < n {
-        let x = DVec2::new(
-            rng.range(-half + 1.0, half - 1.0),
-            rng.range(-half + 1.0, half - 1.0),
-        );
-        if placed
-            .iter()
-            .all(|&y| (x - y).length_squared() >= 4.0 * 1.0001)
-        {
-            let v = DVec2::new(rng.range(-3.5, 3.5), rng.range(-3.5, 3.5));
-            b = b.particle(x, v, 1.0, 1.0);
-            placed.push(x);
-        }
+    let inside = half - 1.0;
+    let position =
+        |rng: &mut Lcg| DVec2::new(rng.range(-inside, inside), rng.range(-inside, inside));
+    let velocity = |rng: &mut Lcg| DVec2::new(rng.range(-3.5, 3.5), rng.range(-3.5, 3.5));
+    for (x, v) in scatter(n, &mut rng, position, velocity) {
+        b = b.particle(x, v, 1.0, 1.0);
     }
     b.build().unwrap()
 }

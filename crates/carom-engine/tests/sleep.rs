@@ -8,7 +8,7 @@ mod support;
 
 use carom_engine::glam::DVec2;
 use carom_engine::{Aabb, BroadPhaseKind, World, WorldBuilder};
-use support::Lcg;
+use support::{scatter, Lcg};
 
 const DT: f64 = 1.0 / 60.0;
 const G: f64 = 9.81;
@@ -29,17 +29,15 @@ fn the_box() -> WorldBuilder<DVec2> {
 fn pour(n: usize, seed: u64) -> WorldBuilder<DVec2> {
     let mut rng = Lcg::new(seed);
     let mut b = the_box();
-    let mut placed: Vec<DVec2> = Vec::new();
-    while placed.len() < n {
-        let x = DVec2::new(
+    let position = |rng: &mut Lcg| {
+        DVec2::new(
             rng.range(-HALF + 1.0, HALF - 1.0),
             rng.range(0.0, HALF - 1.0),
-        );
-        if placed.iter().all(|&y| (x - y).length_squared() >= 4.0004) {
-            let v = DVec2::new(7.0 * (rng.next() - 0.5), 7.0 * (rng.next() - 0.5));
-            b = b.particle(x, v, 1.0, 1.0);
-            placed.push(x);
-        }
+        )
+    };
+    let velocity = |rng: &mut Lcg| DVec2::new(7.0 * (rng.next() - 0.5), 7.0 * (rng.next() - 0.5));
+    for (x, v) in scatter(n, &mut rng, position, velocity) {
+        b = b.particle(x, v, 1.0, 1.0);
     }
     b
 }

@@ -51,3 +51,25 @@ pub fn max_overlap<V: Vector>(w: &World<V>) -> f64 {
     }
     worst
 }
+
+/// `n` unit discs (spheres) at `position(rng)`, drawn again while one would be closer than
+/// touching to one placed before, each with `velocity(rng)` drawn once it is placed.
+#[allow(dead_code)] // (not every test crate asks)
+pub fn scatter<V: Vector>(
+    n: usize,
+    rng: &mut Lcg,
+    position: impl Fn(&mut Lcg) -> V,
+    velocity: impl Fn(&mut Lcg) -> V,
+) -> Vec<(V, V)> {
+    let mut placed: Vec<(V, V)> = Vec::with_capacity(n);
+    while placed.len() < n {
+        let x = position(rng);
+        if placed
+            .iter()
+            .all(|&(y, _)| (x - y).length_squared() >= 4.0 * 1.0001)
+        {
+            placed.push((x, velocity(rng)));
+        }
+    }
+    placed
+}
