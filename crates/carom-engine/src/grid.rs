@@ -52,6 +52,9 @@ pub struct Grid<V> {
     buffers: Vec<Vec<Pair>>,
     /// The pairs raised radii add (see [`raised`]).
     raised_extra: Vec<Pair>,
+    /// The largest radius of the last binning: the search from one side reaches as many cells
+    /// as it needs (see [`half`]).
+    binned_radius: f64,
     overflow: SpatialHash,
     escaped: bool,
     /// Time spent binning since [`BroadPhase::take_bin_time`] last took it.
@@ -208,6 +211,7 @@ impl<V: Vector> Grid<V> {
             run_totals: Vec::new(),
             buffers: Vec::new(),
             raised_extra: Vec::new(),
+            binned_radius: 0.0,
             overflow: SpatialHash::new(),
             escaped: false,
             bin_time: Duration::ZERO,
@@ -282,6 +286,7 @@ impl<V: Vector> Grid<V> {
         let binning = Instant::now();
         self.escaped = false;
         let max_radius = largest(radii);
+        self.binned_radius = max_radius;
         self.plan_layout(positions, max_radius);
         self.build_buckets(positions);
         self.bin_time += binning.elapsed();
