@@ -63,7 +63,12 @@ impl GridLayout {
     /// 5000 discs of radius 1, whose reaches are wider than its cells of 2).
     pub(super) fn cells_apart<V: Vector>(&self, max_radius: f64) -> usize {
         let widest = 2.0 * max_radius * (1.0 + WIDTH_MARGIN);
-        let apart = |a: usize| (widest / self.cell_size[a]).ceil().max(1.0);
+        // (a radius that is not a number holds to no cell count: searched particle by
+        // particle, as before the count was taken)
+        let apart = |a: usize| match (widest / self.cell_size[a]).ceil() {
+            n if n.is_nan() => f64::INFINITY,
+            n => n.max(1.0),
+        };
         (0..V::DIM)
             .map(apart)
             .fold(1.0, f64::max)
@@ -439,6 +444,7 @@ mod tests {
                 "{cells} cells"
             );
             assert_eq!(got, expected, "{cells} cells, {apart} apart");
+            assert!(!grid.searches_from_one_side(f64::NAN), "a radius not a number");
         }
     }
 
