@@ -444,7 +444,10 @@ mod tests {
                 "{cells} cells"
             );
             assert_eq!(got, expected, "{cells} cells, {apart} apart");
-            assert!(!grid.searches_from_one_side(f64::NAN), "a radius not a number");
+            assert!(
+                !grid.searches_from_one_side(f64::NAN),
+                "a radius not a number"
+            );
         }
     }
 
