@@ -17,6 +17,11 @@
 //! and periodic grids). The lecture's 5000 discs in the 100x100 grid, `carom run` of 1500
 //! steps: 0.88x the time of the search by particle (`farm-bench -n 10 --vs`, same bits).
 //!
+//! A few large particles among many small ones (the lecture's 100 discs of radius 3 among 4900
+//! of radius 1, in the same grid) would make every pair up to 4 cells apart: then the small
+//! ones' pairs are walked this way and the large ones search particle by particle
+//! ([`Grid::search_by_sizes`]); the lecture's demo at k = 1, 3000 steps: 0.89x the time.
+//!
 //! Across periodic seams the cells after a cell wrap round (each periodic axis needs three
 //! cells or more), and a pair is tested at the minimum image its lower particle sees, as every
 //! other search tests it. The resting step's first search, whose radii are then raised to the
@@ -28,8 +33,11 @@
 //! gas, 2 threads: the broad phase took 41 ms a step with the search by particle, 30 with this
 //! one, the sort of its pairs included.)
 
-use super::{scan_run, Grid, GridLayout};
-use crate::broadphase::{gather, keep_headroom, Pair, PairFilter, PARALLEL_SEARCH_MIN};
+use super::raised::merge_kept_into;
+use super::{for_each_near, scan_run, Grid, GridLayout};
+use crate::broadphase::{
+    collect_pairs, gather, keep_headroom, keep_tail, Pair, PairFilter, PARALLEL_SEARCH_MIN,
+};
 use crate::bucket::sort_pairs_by_counting;
 use crate::response::is_overlapping;
 use crate::vector::Vector;
@@ -90,6 +98,74 @@ impl<V: Vector> Grid<V> {
         }
     }
 
+    /// The largest radius of the *small* particles, when a search by sizes (see
+    /// [`Grid::search_by_sizes`]) can take this layout: the cells hold pairs of two small
+    /// particles at most [`MOST_CELLS_APART`] apart, and the others, the *large*, are at most
+    /// one in [`FEWEST_SMALL_PER_LARGE`]. (The buckets must be built, without periodic axes.)
+    pub(super) fn small_radius(&self, radii: &[f64]) -> Option<f64> {
+        let narrowest = (0..V::DIM)
+            .map(|a| self.layout.cell_size[a])
+            .fold(f64::INFINITY, f64::min);
+        // (a bound a little under the widest that the cells allow, then checked)
+        let bound = MOST_CELLS_APART as f64 * narrowest / (2.0 * (1.0 + 2.0 * WIDTH_MARGIN));
+        let apart = self.layout.cells_apart::<V>(bound);
+        if !(apart <= MOST_CELLS_APART && self.periodic.is_none()) {
+            return None;
+        }
+        let (small, large) = radii.iter().fold((0.0f64, 0usize), |(small, large), &r| {
+            if r <= bound {
+                (small.max(r), large)
+            } else {
+                (small, large + 1)
+            }
+        });
+        (large > 0 && large * FEWEST_SMALL_PER_LARGE <= radii.len()).then_some(small)
+    }
+
+    /// The search when the cells hold the small particles' pairs to a few cells apart (see
+    /// [`Grid::small_radius`]) but not the large ones': the pairs of two small particles
+    /// (radius at most `small`) from one side, cell by cell, then every pair with a large one
+    /// particle by particle from the large one (from the lower of two large ones), merged.
+    /// The lecture's second demo is such a scene: 100 discs of radius 3 among 4900 of radius
+    /// 1 in its 100x100 grid. Keeps only the pairs `keep` holds for, if any.
+    pub(super) fn search_by_sizes(
+        &mut self,
+        positions: &[V],
+        radii: &[f64],
+        small: f64,
+        keep: Option<&PairFilter<'_>>,
+        pairs: &mut Vec<Pair>,
+    ) {
+        let largest = self.walk_radius;
+        let is_small = |i: usize| radii[i] <= small;
+        self.walk_radius = small;
+        self.walk_cells(positions, keep, &[], pairs, |i, j| {
+            is_small(i)
+                & is_small(j)
+                & is_overlapping(positions[i], positions[j], radii[i], radii[j])
+        });
+        self.walk_radius = largest;
+        let layout = self.layout;
+        let (cell_start, ids) = (&self.cell_start, &self.ids);
+        let extra = &mut self.raised_extra;
+        collect_pairs(positions.len(), &mut self.buffers, extra, |i, out| {
+            if is_small(i) {
+                return;
+            }
+            let (pi, ri, first) = (positions[i], radii[i], out.len());
+            let test = |j: usize| {
+                (is_small(j) | (j > i)) & (j != i) & is_overlapping(pi, positions[j], ri, radii[j])
+            };
+            let hit = |j: usize| out.push((i.min(j) as u32, i.max(j) as u32));
+            for_each_near(&layout, cell_start, ids, pi, ri + largest, test, hit);
+            if let Some(keep) = keep {
+                keep_tail(out, first, keep);
+            }
+        });
+        extra.sort_unstable();
+        merge_kept_into(pairs, extra, |_| true);
+    }
+
     /// [`BroadPhase::find_pairs`](crate::broadphase::BroadPhase::find_pairs) by cells, each
     /// pair tested from one side (see the [module notes](self)), across the periodic seams if
     /// any, keeping only the pairs `keep` holds for, if any. The buckets must be built, with a
@@ -136,7 +212,7 @@ impl<V: Vector> Grid<V> {
             self.buffers.resize_with(tasks, Vec::new);
         }
         let after = Forward {
-            apart: layout.cells_apart::<V>(self.binned_radius),
+            apart: layout.cells_apart::<V>(self.walk_radius),
             cells: layout.cells,
             wraps: [0, 1, 2].map(|a| self.periodic.is_some_and(|p| p.is_periodic(a))),
             cell_start: &self.cell_start,
@@ -228,6 +304,10 @@ struct Forward<'a> {
     wraps: [bool; 3],
     cell_start: &'a [u32],
 }
+
+/// At least this many small particles for each large one for a search by sizes (see
+/// [`Grid::small_radius`]): the large are searched particle by particle.
+const FEWEST_SMALL_PER_LARGE: usize = 8;
 
 /// The most cells apart two partners may lie for the search from one side (see
 /// [`Grid::searches_from_one_side`]): further, the search goes particle by particle.
@@ -449,6 +529,39 @@ mod tests {
                 "a radius not a number"
             );
         }
+    }
+
+    /// With a few large particles among many small ones in cells that hold only the small
+    /// ones' pairs to a few cells apart, the search by sizes finds exactly brute force's pairs.
+    fn finds_by_sizes_what_brute_force_finds<V: Vector>() {
+        let (positions, _) = cloud::<V>(3000, 11);
+        let radii: Vec<f64> = (0..3000)
+            .map(|i| if i % 40 == 0 { 2.5 } else { 0.5 })
+            .collect();
+        let mut expected = Vec::new();
+        BruteForce::new().find_pairs(&positions, &radii, &mut expected);
+        assert!(expected.iter().any(|&(i, j)| i % 40 == 0 && j % 40 == 0));
+        let keep = |(i, j): Pair| (i + 2 * j) % 3 != 1;
+        let mut kept = expected.clone();
+        kept.retain(|&pair| keep(pair));
+        let domain = Aabb::new(V::from_slice(&[-19.9; 3]), V::from_slice(&[19.9; 3])).unwrap();
+        // (cells of 0.6: the small pairs 2 cells apart, the large 9)
+        let mut grid = Grid::new(Some(domain), Some(&vec![66; V::DIM])).unwrap();
+        let found = (&expected[..], &kept[..]);
+        assert_finds(&mut grid, (&positions, &radii), found, &keep, "by sizes");
+        assert!(!grid.searches_from_one_side(2.5));
+        assert_eq!(grid.small_radius(&radii), Some(0.5));
+        // (one large in 7: particle by particle)
+        let crowded: Vec<f64> = (0..3000)
+            .map(|i| if i % 7 == 0 { 2.5 } else { 0.5 })
+            .collect();
+        assert_eq!(grid.small_radius(&crowded), None);
+    }
+
+    #[test]
+    fn the_search_by_sizes_finds_what_brute_force_finds() {
+        finds_by_sizes_what_brute_force_finds::<DVec2>();
+        finds_by_sizes_what_brute_force_finds::<DVec3>();
     }
 
     /// Across periodic seams too, with as few as three cells on a wrapping axis (a cell's

@@ -218,7 +218,7 @@ fn raise_over_pairs(
 
 /// Merges the pairs of sorted `extra` that `keep` holds for into sorted `pairs` (no pair in
 /// both), from the back, in place.
-fn merge_kept_into(pairs: &mut Vec<Pair>, extra: &[Pair], keep: impl Fn(Pair) -> bool) {
+pub(super) fn merge_kept_into(pairs: &mut Vec<Pair>, extra: &[Pair], keep: impl Fn(Pair) -> bool) {
     let add = extra.iter().filter(|&&pair| keep(pair)).count();
     if add == 0 {
         return;
