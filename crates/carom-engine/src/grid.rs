@@ -52,10 +52,6 @@ pub struct Grid<V> {
     buffers: Vec<Vec<Pair>>,
     /// The pairs raised radii add (see [`raised`]).
     raised_extra: Vec<Pair>,
-    /// The largest radius the next walk of the search from one side covers, and so how many
-    /// cells it reaches (see [`half`]): the last binning's largest, or, searching by sizes,
-    /// the largest of the small particles' (see [`Grid::search_by_sizes`]).
-    walk_radius: f64,
     overflow: SpatialHash,
     escaped: bool,
     /// Time spent binning since [`BroadPhase::take_bin_time`] last took it.
@@ -212,7 +208,6 @@ impl<V: Vector> Grid<V> {
             run_totals: Vec::new(),
             buffers: Vec::new(),
             raised_extra: Vec::new(),
-            walk_radius: 0.0,
             overflow: SpatialHash::new(),
             escaped: false,
             bin_time: Duration::ZERO,
@@ -287,7 +282,6 @@ impl<V: Vector> Grid<V> {
         let binning = Instant::now();
         self.escaped = false;
         let max_radius = largest(radii);
-        self.walk_radius = max_radius;
         self.plan_layout(positions, max_radius);
         self.build_buckets(positions);
         self.bin_time += binning.elapsed();
@@ -463,10 +457,10 @@ impl<V: Vector> Grid<V> {
         let max_radius = self.bin(positions, radii);
         let layout = self.layout;
         if self.searches_from_one_side(max_radius) {
-            return self.search_from_one_side(positions, radii, keep, pairs);
+            return self.search_from_one_side(positions, radii, max_radius, keep, pairs);
         }
         if let Some(small) = self.small_radius(radii) {
-            return self.search_by_sizes(positions, radii, small, keep, pairs);
+            return self.search_by_sizes(positions, radii, [small, max_radius], keep, pairs);
         }
         let (cell_start, ids) = (&self.cell_start, &self.ids);
         collect_pairs(positions.len(), &mut self.buffers, pairs, |i, out| {

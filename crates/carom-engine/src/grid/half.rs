@@ -125,26 +125,25 @@ impl<V: Vector> Grid<V> {
     /// The search when the cells hold the small particles' pairs to a few cells apart (see
     /// [`Grid::small_radius`]) but not the large ones': the pairs of two small particles
     /// (radius at most `small`) from one side, cell by cell, then every pair with a large one
-    /// particle by particle from the large one (from the lower of two large ones), merged.
+    /// particle by particle from the large one (from the lower of two large ones), merged;
+    /// `[small, largest]` are the largest radii of the small particles and of all.
     /// The lecture's second demo is such a scene: 100 discs of radius 3 among 4900 of radius
     /// 1 in its 100x100 grid. Keeps only the pairs `keep` holds for, if any.
     pub(super) fn search_by_sizes(
         &mut self,
         positions: &[V],
         radii: &[f64],
-        small: f64,
+        [small, largest]: [f64; 2],
         keep: Option<&PairFilter<'_>>,
         pairs: &mut Vec<Pair>,
     ) {
-        let largest = self.walk_radius;
         let is_small = |i: usize| radii[i] <= small;
-        self.walk_radius = small;
-        self.walk_cells(positions, keep, &[], pairs, |i, j| {
+        let apart = self.layout.cells_apart::<V>(small);
+        self.walk_cells(positions, apart, keep, &[], pairs, |i, j| {
             is_small(i)
                 & is_small(j)
                 & is_overlapping(positions[i], positions[j], radii[i], radii[j])
         });
-        self.walk_radius = largest;
         let layout = self.layout;
         let (cell_start, ids) = (&self.cell_start, &self.ids);
         let extra = &mut self.raised_extra;
@@ -174,16 +173,18 @@ impl<V: Vector> Grid<V> {
         &mut self,
         positions: &[V],
         radii: &[f64],
+        max_radius: f64,
         keep: Option<&PairFilter<'_>>,
         pairs: &mut Vec<Pair>,
     ) {
+        let apart = self.layout.cells_apart::<V>(max_radius);
         match self.periodic {
-            None => self.walk_cells(positions, keep, &[], pairs, |i, j| {
+            None => self.walk_cells(positions, apart, keep, &[], pairs, |i, j| {
                 is_overlapping(positions[i], positions[j], radii[i], radii[j])
             }),
             // (at the minimum image as the lower particle sees it, as every other search
             // tests a pair: the image is rounded differently from the other side)
-            Some(periodic) => self.walk_cells(positions, keep, &[], pairs, |i, j| {
+            Some(periodic) => self.walk_cells(positions, apart, keep, &[], pairs, |i, j| {
                 let (low, high) = (i.min(j), i.max(j));
                 let image = periodic.image(positions[low], positions[high]);
                 is_overlapping(positions[low], image, radii[low], radii[high])
@@ -191,13 +192,15 @@ impl<V: Vector> Grid<V> {
         }
     }
 
-    /// The walk of [`Grid::search_from_one_side`], with `overlaps(i, j)` the pair test. A
+    /// The walk of [`Grid::search_from_one_side`] over partners up to `apart` cells apart (see
+    /// [`GridLayout::cells_apart`]), with `overlaps(i, j)` the pair test. A
     /// cell whose particles and those of the cells after it are all `still` (per particle;
     /// empty when none is) is passed over: `keep` must then drop every pair of two still
     /// particles, which the caller takes from elsewhere (see [`crate::broadphase::Still`]).
     pub(super) fn walk_cells(
         &mut self,
         positions: &[V],
+        apart: usize,
         keep: Option<&PairFilter<'_>>,
         still: &[bool],
         pairs: &mut Vec<Pair>,
@@ -212,7 +215,7 @@ impl<V: Vector> Grid<V> {
             self.buffers.resize_with(tasks, Vec::new);
         }
         let after = Forward {
-            apart: layout.cells_apart::<V>(self.walk_radius),
+            apart,
             cells: layout.cells,
             wraps: [0, 1, 2].map(|a| self.periodic.is_some_and(|p| p.is_periodic(a))),
             cell_start: &self.cell_start,
@@ -483,16 +486,30 @@ mod tests {
         assert_eq!(got, kept, "{label}, keeping some");
     }
 
+    /// Brute force's pairs among `positions`, and those of them `keep` holds for.
+    fn brute_force<V: Vector>(
+        mut brute: BruteForce,
+        positions: &[V],
+        radii: &[f64],
+        keep: &dyn Fn(Pair) -> bool,
+    ) -> (Vec<Pair>, Vec<Pair>) {
+        let mut expected = Vec::new();
+        brute.find_pairs(positions, radii, &mut expected);
+        let kept = expected
+            .iter()
+            .copied()
+            .filter(|&pair| keep(pair))
+            .collect();
+        (expected, kept)
+    }
+
     /// The search from one side finds exactly brute force's pairs (and, keeping some, what a
     /// retain after it keeps), in 2D and 3D, with cells exactly as wide as it needs and wider,
     /// with particles clamped into the border cells.
     fn finds_what_brute_force_finds<V: Vector>() {
         let (positions, radii) = cloud::<V>(3000, 7);
-        let mut expected = Vec::new();
-        BruteForce::new().find_pairs(&positions, &radii, &mut expected);
         let keep = |(i, j): Pair| (i + 2 * j) % 3 != 1;
-        let mut kept = expected.clone();
-        kept.retain(|&pair| keep(pair));
+        let (expected, kept) = brute_force(BruteForce::new(), &positions, &radii, &keep);
         // (a domain a little inside the cloud: its border cells take the few particles beyond)
         let domain = Aabb::new(V::from_slice(&[-19.9; 3]), V::from_slice(&[19.9; 3])).unwrap();
         for cells in [1, 5, 13] {
@@ -538,12 +555,9 @@ mod tests {
         let radii: Vec<f64> = (0..3000)
             .map(|i| if i % 40 == 0 { 2.5 } else { 0.5 })
             .collect();
-        let mut expected = Vec::new();
-        BruteForce::new().find_pairs(&positions, &radii, &mut expected);
-        assert!(expected.iter().any(|&(i, j)| i % 40 == 0 && j % 40 == 0));
         let keep = |(i, j): Pair| (i + 2 * j) % 3 != 1;
-        let mut kept = expected.clone();
-        kept.retain(|&pair| keep(pair));
+        let (expected, kept) = brute_force(BruteForce::new(), &positions, &radii, &keep);
+        assert!(expected.iter().any(|&(i, j)| i % 40 == 0 && j % 40 == 0));
         let domain = Aabb::new(V::from_slice(&[-19.9; 3]), V::from_slice(&[19.9; 3])).unwrap();
         // (cells of 0.6: the small pairs 2 cells apart, the large 9)
         let mut grid = Grid::new(Some(domain), Some(&vec![66; V::DIM])).unwrap();
@@ -580,11 +594,8 @@ mod tests {
                 .iter()
                 .map(|&x| periodic.unwrap().wrap(x))
                 .collect();
-            let mut expected = Vec::new();
-            let mut brute = BruteForce::new().with_periodic(periodic);
-            brute.find_pairs(&positions, &radii, &mut expected);
-            let mut kept = expected.clone();
-            kept.retain(|&pair| keep(pair));
+            let brute = BruteForce::new().with_periodic(periodic);
+            let (expected, kept) = brute_force(brute, &positions, &radii, &keep);
             for cells in [[3, 3, 3], [4, 3, 5], [13, 5, 3], [7, 13, 4]] {
                 let cells = &cells[..V::DIM];
                 let grid = Grid::new(Some(domain), Some(cells)).unwrap();

@@ -57,7 +57,7 @@ impl<V: Vector> Grid<V> {
     ) {
         let max_radius = self.bin(positions, radii);
         if self.searches_from_one_side(max_radius) {
-            return self.search_from_one_side(positions, radii, keep, pairs);
+            return self.search_from_one_side(positions, radii, max_radius, keep, pairs);
         }
         let layout = self.layout;
         let (cell_start, ids) = (&self.cell_start, &self.ids);

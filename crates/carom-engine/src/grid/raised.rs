@@ -46,10 +46,11 @@ impl<V: Vector> Grid<V> {
         } = *raising;
         if self.searches_from_one_side(max_radius) {
             if still.flags.is_empty() {
-                self.search_from_one_side(positions, radii, None, pairs);
+                self.search_from_one_side(positions, radii, max_radius, None, pairs);
             } else {
                 let keep = |pair: Pair| !still.both(pair);
-                self.walk_cells(positions, Some(&keep), still.flags, pairs, |i, j| {
+                let apart = self.layout.cells_apart::<V>(max_radius);
+                self.walk_cells(positions, apart, Some(&keep), still.flags, pairs, |i, j| {
                     is_overlapping(positions[i], positions[j], radii[i], radii[j])
                 });
                 Self::add_still_pairs(positions, radii, &still, pairs);
