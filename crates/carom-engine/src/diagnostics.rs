@@ -79,6 +79,9 @@ pub struct StepStats {
     /// Particles asleep through this step (see [`crate::sleep`]); their contacts are not in
     /// `contacts`.
     pub asleep: usize,
+    /// How many times the step was taken again because a push drove a particle beyond its
+    /// reach into one the step never solved a contact with (0 to 3; see the solver's notes).
+    pub retakes: u32,
 }
 
 #[cfg(test)]

@@ -11,8 +11,9 @@
 //! back up.
 
 use crate::diagnostics::StepStats;
-use crate::solver::VelocitySolve;
+use crate::solver::{VelocitySolve, MOST_RETAKES};
 use crate::timing::{Lap, PhaseTimes};
+use std::time::Duration;
 
 /// What a stepper does in each phase of [`advance`].
 pub(crate) trait Phases {
@@ -33,6 +34,11 @@ pub(crate) trait Phases {
     fn remember(&mut self);
     /// Counts the step and reports it.
     fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats;
+    /// After `integrate`: whether a particle went beyond its reach into one the step never
+    /// solved a contact with (see `solver::escape`). If so, puts the particles back where the
+    /// step started them, at the speeds it started them with, and raises those particles'
+    /// reaches for the step to be taken again.
+    fn take_back_escapes(&mut self) -> bool;
     /// Where the stepper's time went; `find_contacts` adds its `rows` itself.
     fn times(&mut self) -> &mut PhaseTimes;
 }
@@ -43,14 +49,26 @@ pub(crate) fn advance(stepper: &mut impl Phases) -> StepStats {
     stepper.sort_along_space();
     let sort = clock.lap();
     let (rows_before, bin_before) = (stepper.times().rows, stepper.times().bin);
-    stepper.find_contacts();
-    let find = clock.lap();
-    let solve = stepper.integrate();
-    let integrate = clock.lap();
+    // (a step taken again is timed in its phases, the search and the velocity phase again)
+    let (mut find, mut integrate, mut motion) = (Duration::ZERO, Duration::ZERO, Duration::ZERO);
+    let mut tries = 0;
+    let solve = loop {
+        stepper.find_contacts();
+        find += clock.lap();
+        let solve = stepper.integrate();
+        motion += solve.motion;
+        tries += 1;
+        let again = tries <= MOST_RETAKES && stepper.take_back_escapes();
+        integrate += clock.lap();
+        if !again {
+            break solve;
+        }
+    };
     let max_overlap = stepper.separate();
     let position = clock.lap();
     stepper.remember();
-    let stats = stepper.finish(solve, max_overlap);
+    let mut stats = stepper.finish(solve, max_overlap);
+    stats.retakes = tries - 1;
     let bookkeeping = clock.lap();
     let times = stepper.times();
     times.steps += 1;
@@ -58,8 +76,8 @@ pub(crate) fn advance(stepper: &mut impl Phases) -> StepStats {
     // (find_contacts timed its rows and its binning; the search is the rest)
     let timed_inside = (times.rows - rows_before) + (times.bin - bin_before);
     times.search += find.saturating_sub(timed_inside);
-    times.motion += solve.motion;
-    times.velocity += integrate.saturating_sub(solve.motion);
+    times.motion += motion;
+    times.velocity += integrate.saturating_sub(motion);
     times.position += position;
     times.bookkeeping += bookkeeping;
     stats

@@ -124,6 +124,10 @@ pub struct Driven {
     pub worst_overlap: f64,
     /// The last step that hit the velocity sweep cap.
     pub last_capped: Option<u64>,
+    /// Steps taken again because a push drove a particle beyond its reach into another
+    /// (`StepStats::retakes` above 0), and the tries taken again in all.
+    pub retaken_steps: u64,
+    pub retakes: u64,
     /// Steps in which a particle started faster than a radius a step
     /// (`StepStats::fastest_move` above 1), and the fastest such move with its step.
     pub outran_steps: u64,
@@ -152,6 +156,8 @@ impl Driven {
             self.last_capped = Some(step);
         }
         self.outran_steps += (stats.fastest_move > 1.0) as u64;
+        self.retaken_steps += (stats.retakes > 0) as u64;
+        self.retakes += stats.retakes as u64;
         if stats.fastest_move > self.fastest_move {
             (self.fastest_move, self.fastest_move_step) = (stats.fastest_move, step);
         }

@@ -113,6 +113,15 @@ impl<V: Vector> Summary<'_, V> {
             d.last_overlap * 100.0,
             d.worst_overlap * 100.0
         );
+        if d.retaken_steps > 0 {
+            println!(
+                "retakes     {} of {steps} steps were taken again ({} tries in all): a push down a \
+                 chain of contacts drove a particle beyond its reach into one the step had no \
+                 contact for, so the step was taken back and taken again with that particle's \
+                 reach covering its move",
+                d.retaken_steps, d.retakes
+            );
+        }
         if d.outran_steps > 0 {
             println!(
                 "moves       in {} of {steps} steps a particle started faster than its radius a \

@@ -50,6 +50,7 @@
 //! The order of every rule application is fixed by [`crate::schedule`].
 
 mod bounces;
+mod escape;
 mod position;
 mod rows;
 mod rules;
@@ -59,6 +60,7 @@ mod velocity;
 
 pub use settings::{SolverSettings, VelocitySolve, RESIDUAL_FRACTION, SLOP_FRACTION};
 
+pub(crate) use escape::{Moved, Retakes, StepStart, MOST_RETAKES};
 pub(crate) use position::separate;
 pub(crate) use rows::{
     deepest_placed, moving_mass, prepare_plane_rows, prepare_rows, tally, Contacts, Moving,

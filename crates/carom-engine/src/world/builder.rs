@@ -236,6 +236,8 @@ impl<V: Vector> WorldBuilder<V> {
             tally: self.tally,
             last_overlap: None,
             found_overlap: 0.0,
+            retakes: Default::default(),
+            step_start: Default::default(),
             fastest_move: 0.0,
         })
     }

@@ -150,6 +150,9 @@ pub struct World<V: Vector> {
     last_overlap: Option<f64>,
     /// This step's [`StepStats::found_overlap`].
     found_overlap: f64,
+    /// What a step taken again needs (see `solver::escape`).
+    retakes: crate::solver::Retakes<V>,
+    step_start: crate::solver::StepStart<V>,
     /// This step's [`StepStats::fastest_move`].
     fastest_move: f64,
 }

@@ -55,6 +55,11 @@ impl<V: Vector> Phases for World<V> {
             self.fastest_move = 0.0;
             return;
         }
+        if !self.retakes.begin_try() {
+            let raises = solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes);
+            let p = &self.store;
+            (self.step_start).keep(raises, &p.position, &p.velocity, parallel);
+        }
         let within_reach = self.find_pairs(parallel);
         self.phase_times.bin += self.broad_phase.take_bin_time();
         match sleep {
@@ -172,6 +177,41 @@ impl<V: Vector> Phases for World<V> {
         );
     }
 
+    fn take_back_escapes(&mut self) -> bool {
+        if self.all_asleep || self.step_start.position.is_empty() {
+            return false;
+        }
+        let (parallel, p, n) = (self.parallel(), &self.store, self.store.len());
+        let (start, reach, ids) = (&self.step_start.position, &self.reach, &self.ids);
+        let particle = |s: usize| solver::Moved {
+            id: ids[s],
+            start: start[s],
+            end: p.position[s],
+            radius: p.radius[s],
+            reach: reach[s],
+        };
+        let retakes = &mut self.retakes;
+        retakes.collect(n, parallel, particle);
+        if retakes.escapes.list.is_empty() {
+            return false;
+        }
+        let max_radius = if parallel {
+            p.radius.par_iter().copied().reduce(|| 0.0, f64::max)
+        } else {
+            p.radius.iter().copied().fold(0.0, f64::max)
+        };
+        retakes.escapes.index(max_radius, n, self.periodic);
+        if retakes.escapes.strikes(&p.position, parallel, particle) == 0 {
+            return false;
+        }
+        retakes.take_again(n);
+        let p = &mut self.store;
+        self.step_start.restore(&mut p.position, &mut p.velocity);
+        // (the search looks everywhere again: this try's marks of who is still are its own)
+        self.sleeping_pairs_hold = false;
+        true
+    }
+
     fn times(&mut self) -> &mut PhaseTimes {
         &mut self.phase_times
     }
@@ -224,6 +264,7 @@ impl<V: Vector> Phases for World<V> {
             max_overlap,
             found_overlap: self.found_overlap,
             fastest_move: self.fastest_move,
+            retakes: 0,
         }
     }
 }
@@ -275,6 +316,9 @@ impl<V: Vector> World<V> {
                 each.fold(0.0, f64::max)
             }
         };
+        if raises {
+            self.retakes.raise(&mut self.reach, &p.radius);
+        }
         let (position, radius) = (&p.position, &p.radius);
         let scratch = &mut self.sorter.scratch;
         let settings = self.config.solver_settings();

@@ -164,11 +164,17 @@ impl<V: Vector> Subdomain<V> {
             self.reach.push(reach);
             self.fastest_move = self.fastest_move.max(moves);
         }
+        let settings = self.config.solver_settings();
+        let raises = solver::reach_covers_pushes(&settings, &self.planes);
+        // (as a world does: a step taken again reaches as far as its escapees went)
+        self.retakes.begin_try();
+        if raises {
+            self.retakes.raise(&mut self.reach, &self.window.radius);
+        }
         self.search_with_ghosts(link);
         // (as a world does: see `solver::raise_to_partners`; a ghost's velocity came with it,
         // and every rank searches again when any raised a reach)
-        let settings = self.config.solver_settings();
-        if solver::reach_covers_pushes(&settings, &self.planes) {
+        if raises {
             let search = &self.search;
             let speed = |k: usize| search.velocity[k].length_squared().sqrt();
             let (reach, radius, found) = (&mut self.reach, &search.radius, &self.found);

@@ -2,6 +2,7 @@
 
 mod contacts;
 mod migrate;
+mod retake;
 mod stepping;
 
 use migrate::own_memory;
@@ -79,6 +80,8 @@ pub struct Subdomain<V: Vector> {
     found_overlap: f64,
     /// This step's [`StepStats::fastest_move`] among the own particles.
     fastest_move: f64,
+    /// What a step taken again needs (see `solver::escape`): the start is the search's copy.
+    retakes: crate::solver::Retakes<V>,
     plane_contacts: Vec<PlaneContact>,
     plane_rows: Vec<PlaneRow<V>>,
     /// Remembered impulses of the contacts this rank owns (relative slots), and the id of each
@@ -282,6 +285,7 @@ impl<V: Vector> Subdomain<V> {
             rows: Default::default(),
             found_overlap: 0.0,
             fastest_move: 0.0,
+            retakes: Default::default(),
             plane_contacts: Vec::new(),
             plane_rows: Vec::new(),
             memory: share.memory,

@@ -163,6 +163,10 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
         );
     }
 
+    fn take_back_escapes(&mut self) -> bool {
+        self.sub.take_back_escapes(self.link)
+    }
+
     fn times(&mut self) -> &mut PhaseTimes {
         &mut self.sub.phase_times
     }
@@ -201,6 +205,7 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
             max_overlap,
             found_overlap: self.link.largest(s.found_overlap),
             fastest_move: self.link.largest(s.fastest_move),
+            retakes: 0,
         }
     }
 }

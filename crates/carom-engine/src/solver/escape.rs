@@ -1,0 +1,502 @@
+//! Particles driven beyond their reach within a step, and the step taken again.
+//!
+//! A pair is a contact candidate when its particles are within reach of each other where the
+//! step starts, and each reach covers the particle's own move and the pushes of its partners
+//! (see [`super::raise_to_partners`]). A push passed along a chain of contacts can still drive
+//! a particle further: a disc landing at 25 on a column of touching discs at the lecture box's
+//! wall, at `k = 0`, carries the whole column down with it, and the column's lowest disc runs
+//! into one it had no candidate pair with. The lecture's detection finds that pair only after
+//! the move, and the lecture pile at `k = 0` was left 23.9 % of r deep (fill seed 1).
+//!
+//! So after the velocity phase and the move, each particle that went further than its reach
+//! allows, by more than [`ESCAPE_TOLERANCE`] of its radius, is an escapee. When an
+//! escapee overlaps, deeper than the tolerance, a particle that was beyond reach of it where
+//! the step started (a pair the step never solved), the step is taken back and taken again
+//! with every escapee's reach raised to cover its move ([`escape_reach`]), at most
+//! [`MOST_RETAKES`] times (see `step::advance`). A pair of particles that stayed within their
+//! reaches is a candidate or stays apart, so a step with no escapee is never taken again.
+//!
+//! Every decision here is a count over particles, the same whichever order, thread or rank
+//! counts: a world and a split run take the same steps again.
+
+use super::settings::SLOP_FRACTION;
+use crate::broadphase::{gather, keep_headroom};
+use crate::periodic::Periodic;
+use crate::response::is_overlapping;
+use crate::vector::Vector;
+use rayon::prelude::*;
+
+/// How far (as a fraction of its radius) a particle may go beyond its reach, and how deep a
+/// pair the step never solved may overlap, before the step is taken again.
+pub(crate) const ESCAPE_TOLERANCE: f64 = 0.005;
+
+/// The most times one step is taken again.
+pub(crate) const MOST_RETAKES: u32 = 3;
+
+/// An escapee's reach when the step is taken again is this many times its move (plus its
+/// radius): taken again, it is stopped sooner by its new partners, but a partner may also
+/// push it further than before.
+const MOVE_MARGIN: f64 = 1.25;
+
+/// A particle's reach when the step is taken again after it moved `moved` (length) in the
+/// step: its radius and slop (as in [`super::reach`]), and [`MOVE_MARGIN`] times its move.
+/// Not capped at a radius as [`super::reach`] is: the reach must cover the move.
+#[inline]
+pub(crate) fn escape_reach(radius: f64, moved: f64) -> f64 {
+    radius + SLOP_FRACTION * radius + MOVE_MARGIN * moved
+}
+
+/// How far a particle went from `start` to `end`, when that is further than its `reach`
+/// (with `radius`) covers by more than [`ESCAPE_TOLERANCE`] of its radius; `None` otherwise.
+#[inline]
+pub(crate) fn moved_beyond<V: Vector>(start: V, end: V, reach: f64, radius: f64) -> Option<f64> {
+    let moved = (end - start).length_squared().sqrt();
+    (moved > reach - radius + ESCAPE_TOLERANCE * radius).then_some(moved)
+}
+
+/// A particle's step, as the check reads it: an escapee (one that went beyond its reach, see
+/// [`moved_beyond`]) or a particle it may strike.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Moved<V> {
+    /// Its particle id (the same on every rank).
+    pub id: u32,
+    /// Where the step started it.
+    pub start: V,
+    /// Where the step left it.
+    pub end: V,
+    /// Its radius.
+    pub radius: f64,
+    /// Its reach in the step's search (raised: see [`super::raise_to_partners`]).
+    pub reach: f64,
+}
+
+impl<V: Vector> Moved<V> {
+    /// Whether this escapee overlaps `other` at the end of the step deeper than the tolerance
+    /// while the two were beyond reach of each other where it started.
+    #[inline]
+    fn strikes(&self, other: &Moved<V>, periodic: Option<&Periodic>) -> bool {
+        if other.id == self.id {
+            return false;
+        }
+        let image = |a: V, b: V| periodic.map_or(b, |p| p.image(a, b));
+        let end = image(self.end, other.end);
+        let deep = self.radius + other.radius - ESCAPE_TOLERANCE * self.radius.min(other.radius);
+        is_overlapping(self.end, end, deep, 0.0)
+            && !is_overlapping(
+                self.start,
+                image(self.start, other.start),
+                self.reach,
+                other.reach,
+            )
+    }
+}
+
+/// The escapees of a step and a grid over where they ended, to check every particle against
+/// the few near it: a pass over every particle reads its end position and one bit, and only a
+/// particle in a marked cell reads the rest.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Escapes<V> {
+    /// The escapees (of every rank, in a split run).
+    pub list: Vec<Moved<V>>,
+    /// The grid's lowest corner, cell edge (at least the largest distance at which a particle
+    /// can strike) and its inverse, and cells per axis (1 on unused axes).
+    origin: [f64; 3],
+    inverse_cell: f64,
+    cells: [usize; 3],
+    /// One bit per cell: whether it lies within one cell of an escapee's.
+    marks: Vec<u64>,
+    /// (cell, escapee) for every escapee, sorted.
+    by_cell: Vec<(usize, u32)>,
+    /// The grid is not used across periodic seams: then every particle is checked against
+    /// every escapee.
+    periodic: Option<Periodic>,
+}
+
+/// At most this many cells in the grid per particle checked (and at least [`FEWEST_CELLS`]):
+/// coarser cells then, which mark more particles for the full check.
+const CELLS_PER_PARTICLE: usize = 8;
+const FEWEST_CELLS: usize = 4096;
+
+impl<V: Vector> Escapes<V> {
+    /// Lays the grid over `list`, for `particles` particles of radius up to `max_radius`.
+    pub fn index(&mut self, max_radius: f64, particles: usize, periodic: Option<Periodic>) {
+        self.periodic = periodic;
+        if self.list.is_empty() || periodic.is_some() {
+            return;
+        }
+        let largest = self.list.iter().fold(0.0f64, |m, e| m.max(e.radius));
+        let mut cell = (largest + max_radius).max(f64::MIN_POSITIVE);
+        let (mut lo, mut hi) = ([0.0f64; 3], [0.0f64; 3]);
+        for a in 0..V::DIM {
+            lo[a] = self
+                .list
+                .iter()
+                .fold(f64::INFINITY, |m, e| m.min(e.end.get(a)));
+            hi[a] = self
+                .list
+                .iter()
+                .fold(f64::NEG_INFINITY, |m, e| m.max(e.end.get(a)));
+        }
+        // (a cell of margin on each side: a particle there may be struck)
+        let count = |cell: f64| {
+            let mut cells = [1usize; 3];
+            for a in 0..V::DIM {
+                cells[a] = ((hi[a] - lo[a]) / cell) as usize + 3;
+            }
+            cells
+        };
+        let most = (CELLS_PER_PARTICLE * particles).max(FEWEST_CELLS);
+        let mut cells = count(cell);
+        while cells.iter().product::<usize>() > most {
+            cell *= 2.0;
+            cells = count(cell);
+        }
+        for l in lo.iter_mut().take(V::DIM) {
+            *l -= cell;
+        }
+        (self.origin, self.inverse_cell, self.cells) = (lo, 1.0 / cell, cells);
+        let total = cells.iter().product::<usize>();
+        self.marks.clear();
+        self.marks.resize(total.div_ceil(64), 0);
+        self.by_cell.clear();
+        for k in 0..self.list.len() {
+            let at = (self.coordinates(self.list[k].end)).expect("an escapee lies in its grid");
+            self.by_cell.push((self.index_of(at), k as u32));
+            // (every escapee's cell has a neighbour on each side: the margin)
+            let near = |a: usize| {
+                if a < V::DIM {
+                    at[a] - 1..=at[a] + 1
+                } else {
+                    at[a]..=at[a]
+                }
+            };
+            for z in near(2) {
+                for y in near(1) {
+                    for x in near(0) {
+                        let c = self.index_of([x, y, z]);
+                        self.marks[c / 64] |= 1 << (c % 64);
+                    }
+                }
+            }
+        }
+        self.by_cell.sort_unstable();
+    }
+
+    /// The grid coordinates of the cell holding `x`, or `None` outside the grid.
+    #[inline]
+    fn coordinates(&self, x: V) -> Option<[usize; 3]> {
+        let mut at = [0usize; 3];
+        for (a, at) in at.iter_mut().enumerate().take(V::DIM) {
+            let t = (x.get(a) - self.origin[a]) * self.inverse_cell;
+            // (a NaN is outside too)
+            if !(t >= 0.0 && t < self.cells[a] as f64) {
+                return None;
+            }
+            *at = (t as usize).min(self.cells[a] - 1);
+        }
+        Some(at)
+    }
+
+    #[inline]
+    fn index_of(&self, [x, y, z]: [usize; 3]) -> usize {
+        (z * self.cells[1] + y) * self.cells[0] + x
+    }
+
+    /// How many escapees strike the particle that ended at `end` (`particle()` gives the
+    /// rest of it; see [`Moved::strikes`]).
+    #[inline]
+    pub fn strikes_on(&self, end: V, particle: impl Fn() -> Moved<V>) -> u64 {
+        if self.list.is_empty() {
+            return 0;
+        }
+        if self.periodic.is_some() {
+            let (periodic, p) = (self.periodic.as_ref(), particle());
+            return self.list.iter().filter(|e| e.strikes(&p, periodic)).count() as u64;
+        }
+        let Some(at) = self.coordinates(end) else {
+            return 0;
+        };
+        let c = self.index_of(at);
+        if self.marks[c / 64] & (1 << (c % 64)) == 0 {
+            return 0;
+        }
+        let p = particle();
+        let mut strikes = 0;
+        let span = |a: usize| {
+            if a < V::DIM {
+                at[a].saturating_sub(1)..=(at[a] + 1).min(self.cells[a] - 1)
+            } else {
+                at[a]..=at[a]
+            }
+        };
+        for z in span(2) {
+            for y in span(1) {
+                for x in span(0) {
+                    let c = self.index_of([x, y, z]);
+                    let first = self.by_cell.partition_point(|&(cell, _)| cell < c);
+                    for &(_, k) in self.by_cell[first..].iter().take_while(|&&(d, _)| d == c) {
+                        strikes += self.list[k as usize].strikes(&p, None) as u64;
+                    }
+                }
+            }
+        }
+        strikes
+    }
+
+    /// How many strikes (see [`Moved::strikes`]) the escapees make on the particles that
+    /// ended at `end`, the rest of particle `s` from `particle(s)`; on the thread pool when
+    /// `parallel`.
+    pub fn strikes(
+        &self,
+        end: &[V],
+        parallel: bool,
+        particle: impl Fn(usize) -> Moved<V> + Sync,
+    ) -> u64 {
+        if self.list.is_empty() {
+            return 0;
+        }
+        let one = |(s, &x): (usize, &V)| self.strikes_on(x, || particle(s));
+        if parallel {
+            end.par_iter().enumerate().map(one).sum()
+        } else {
+            end.iter().enumerate().map(one).sum()
+        }
+    }
+}
+
+/// Where a world's step started its particles, and their velocities then, to take the step
+/// back (a rank of a split run reads its search's copies instead); empty when contacts cannot
+/// rest (the lecture's step finds such pairs after the move, as the lecture's detection does).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct StepStart<V> {
+    pub position: Vec<V>,
+    pub velocity: Vec<V>,
+}
+
+impl<V: Vector> StepStart<V> {
+    /// Keeps `position` and `velocity` when `keep` (contacts can rest); otherwise lets the
+    /// copies go.
+    pub fn keep(&mut self, keep: bool, position: &[V], velocity: &[V], parallel: bool) {
+        if !keep {
+            *self = Self::default();
+            return;
+        }
+        copy_into(&mut self.position, position, parallel);
+        copy_into(&mut self.velocity, velocity, parallel);
+    }
+
+    /// Puts `position` and `velocity` back as they were kept.
+    pub fn restore(&self, position: &mut [V], velocity: &mut [V]) {
+        position.copy_from_slice(&self.position);
+        velocity.copy_from_slice(&self.velocity);
+    }
+}
+
+/// What a stepper keeps to take a step again (see the module's notes).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Retakes<V> {
+    /// Per slot, how far the particle went in a try taken back this step (0: not beyond its
+    /// reach); empty while no try was.
+    moved: Vec<f64>,
+    /// The slots of this try's escapees, and each chunk's while they are collected.
+    escaped: Vec<usize>,
+    buffers: Vec<Vec<usize>>,
+    /// This try's escapees.
+    pub escapes: Escapes<V>,
+    /// Whether the step is being taken again (its search keeps `moved`).
+    again: bool,
+}
+
+impl<V: Vector> Retakes<V> {
+    /// At the start of a try: whether it takes the step again (otherwise the last step's
+    /// moves are forgotten).
+    pub fn begin_try(&mut self) -> bool {
+        let again = std::mem::take(&mut self.again);
+        if !again {
+            self.moved.clear();
+        }
+        again
+    }
+
+    /// Raises each reach to cover the move its particle made in a try taken back this step.
+    pub fn raise(&self, reach: &mut [f64], radius: &[f64]) {
+        for (s, &moved) in self.moved.iter().enumerate() {
+            if moved > 0.0 {
+                reach[s] = reach[s].max(escape_reach(radius[s], moved));
+            }
+        }
+    }
+
+    /// Collects this try's escapees among slots `0..n` (`particle(s)`) into `escapes.list`
+    /// (a split run then gathers every rank's there).
+    pub fn collect(
+        &mut self,
+        n: usize,
+        parallel: bool,
+        particle: impl Fn(usize) -> Moved<V> + Sync,
+    ) {
+        let beyond = |s: usize| {
+            let p = particle(s);
+            moved_beyond(p.start, p.end, p.reach, p.radius).is_some()
+        };
+        // (fixed chunks, each into its own buffer, gathered in order: the same list for any
+        // number of threads, and no allocation once the buffers have grown)
+        let chunks = n.div_ceil(COLLECT_CHUNK);
+        if self.buffers.len() < chunks {
+            self.buffers.resize_with(chunks, Vec::new);
+        }
+        let work = |(c, out): (usize, &mut Vec<usize>)| {
+            out.clear();
+            let slots = c * COLLECT_CHUNK..((c + 1) * COLLECT_CHUNK).min(n);
+            out.extend(slots.filter(|&s| beyond(s)));
+            keep_headroom(out);
+        };
+        let buffers = &mut self.buffers[..chunks];
+        if parallel {
+            buffers.par_iter_mut().enumerate().for_each(work);
+        } else {
+            buffers.iter_mut().enumerate().for_each(work);
+        }
+        gather(buffers, &mut self.escaped);
+        self.escapes.list.clear();
+        self.escapes
+            .list
+            .extend(self.escaped.iter().map(|&s| particle(s)));
+        keep_headroom(&mut self.escapes.list);
+    }
+
+    /// Takes note of this try's escapees' moves for the next try (slots `0..n`), which takes
+    /// the step again.
+    pub fn take_again(&mut self, n: usize) {
+        self.moved.resize(n, 0.0);
+        for (&s, e) in self.escaped.iter().zip(&self.escapes.list) {
+            let moved = (e.end - e.start).length_squared().sqrt();
+            self.moved[s] = self.moved[s].max(moved);
+        }
+        self.again = true;
+    }
+}
+
+/// Particles per task when the escapees are collected.
+const COLLECT_CHUNK: usize = 16_384;
+
+/// Makes `into` a copy of `from`, on the thread pool when `parallel`.
+fn copy_into<V: Copy + Send + Sync>(into: &mut Vec<V>, from: &[V], parallel: bool) {
+    if into.len() != from.len() {
+        into.clear();
+        into.extend_from_slice(from);
+    } else if parallel {
+        const CHUNK: usize = 1 << 14;
+        (into.par_chunks_mut(CHUNK))
+            .zip(from.par_chunks(CHUNK))
+            .for_each(|(a, b)| a.copy_from_slice(b));
+    } else {
+        into.copy_from_slice(from);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DVec2, DVec3};
+
+    fn moved<V: Vector>(id: u32, start: V, end: V) -> Moved<V> {
+        Moved {
+            id,
+            start,
+            end,
+            radius: 1.0,
+            reach: 1.1,
+        }
+    }
+
+    #[test]
+    fn a_move_within_reach_is_no_escape() {
+        let start = DVec2::ZERO;
+        assert_eq!(moved_beyond(start, DVec2::new(0.1, 0.0), 1.1, 1.0), None);
+        // (the tolerance: 0.5 % of the radius)
+        assert_eq!(moved_beyond(start, DVec2::new(0.104, 0.0), 1.1, 1.0), None);
+        assert_eq!(
+            moved_beyond(start, DVec2::new(0.2, 0.0), 1.1, 1.0),
+            Some(0.2)
+        );
+    }
+
+    #[test]
+    fn an_escape_reach_covers_the_move() {
+        assert!(escape_reach(1.0, 0.4) >= 1.0 + 0.4);
+        // (not capped at a radius as a reach is)
+        assert!(escape_reach(1.0, 3.0) >= 4.0);
+    }
+
+    /// Brute force's count of strikes, for the grid's to be held to.
+    fn brute<V: Vector>(escapes: &[Moved<V>], particles: &[Moved<V>]) -> u64 {
+        let mut n = 0;
+        for e in escapes {
+            for p in particles {
+                n += e.strikes(p, None) as u64;
+            }
+        }
+        n
+    }
+
+    fn scatter<V: Vector>(seed: u64) -> (Vec<Moved<V>>, Vec<Moved<V>>) {
+        let mut next = crate::testing::uniform(seed);
+        let mut point = |scale: f64| V::from_slice(&[0.0; 3].map(|_: f64| next() * scale));
+        let particles: Vec<Moved<V>> = (0..400)
+            .map(|id| {
+                let start = point(30.0);
+                moved(id, start, start + point(0.5))
+            })
+            .collect();
+        let escapes = (0..40)
+            .map(|k| {
+                let mut m = particles[k * 10];
+                m.end = m.start + point(3.0);
+                m
+            })
+            .collect();
+        (escapes, particles)
+    }
+
+    fn the_grid_counts_as_brute_force<V: Vector>() {
+        for seed in 1..6 {
+            let (list, particles) = scatter::<V>(seed);
+            let expected = brute(&list, &particles);
+            let mut escapes = Escapes {
+                list,
+                ..Escapes::default()
+            };
+            escapes.index(1.0, particles.len(), None);
+            let counted: u64 = particles
+                .iter()
+                .map(|p| escapes.strikes_on(p.end, || *p))
+                .sum();
+            assert_eq!(counted, expected, "seed {seed}");
+            let ends: Vec<V> = particles.iter().map(|p| p.end).collect();
+            let lookup = |s: usize| particles[s];
+            assert_eq!(escapes.strikes(&ends, true, lookup), expected);
+        }
+    }
+
+    #[test]
+    fn the_grid_counts_every_strike_in_2d_and_3d() {
+        the_grid_counts_as_brute_force::<DVec2>();
+        the_grid_counts_as_brute_force::<DVec3>();
+    }
+
+    #[test]
+    fn a_strike_needs_a_pair_beyond_reach_at_the_start() {
+        // Two discs 2.5 apart (beyond reaches 1.1 + 1.1), the escapee ends 1.5 from the other.
+        let other = moved(1, DVec2::new(2.5, 0.0), DVec2::new(2.5, 0.0));
+        let e = moved(0, DVec2::ZERO, DVec2::new(1.0, 0.0));
+        assert!(e.strikes(&other, None));
+        // Within reach at the start: a candidate the step solved, not a strike.
+        let near = moved(1, DVec2::new(2.1, 0.0), DVec2::new(2.5, 0.0));
+        assert!(!e.strikes(&near, None));
+        // Touching within the tolerance is no strike; a particle never strikes itself.
+        let touching = moved(1, DVec2::new(3.0, 0.0), DVec2::new(2.999, 0.0));
+        assert!(!e.strikes(&touching, None));
+        assert!(!e.strikes(&moved(0, DVec2::ZERO, DVec2::new(1.0, 0.0)), None));
+    }
+}
