@@ -137,11 +137,12 @@ impl<V: Vector> Escapes<V> {
                 .iter()
                 .fold(f64::NEG_INFINITY, |m, e| m.max(e.end.get(a)));
         }
-        // (a cell of margin on each side: a particle there may be struck)
+        // (two cells of margin on each side: a particle in the nearer may be struck, and the
+        // other keeps every escapee's neighbours inside the grid whatever the rounding)
         let count = |cell: f64| {
             let mut cells = [1usize; 3];
             for a in 0..V::DIM {
-                cells[a] = ((hi[a] - lo[a]) / cell) as usize + 3;
+                cells[a] = ((hi[a] - lo[a]) / cell) as usize + 5;
             }
             cells
         };
@@ -152,7 +153,7 @@ impl<V: Vector> Escapes<V> {
             cells = count(cell);
         }
         for l in lo.iter_mut().take(V::DIM) {
-            *l -= cell;
+            *l -= 2.0 * cell;
         }
         (self.origin, self.inverse_cell, self.cells) = (lo, 1.0 / cell, cells);
         let total = cells.iter().product::<usize>();
@@ -162,17 +163,9 @@ impl<V: Vector> Escapes<V> {
         for k in 0..self.list.len() {
             let at = (self.coordinates(self.list[k].end)).expect("an escapee lies in its grid");
             self.by_cell.push((self.index_of(at), k as u32));
-            // (every escapee's cell has a neighbour on each side: the margin)
-            let near = |a: usize| {
-                if a < V::DIM {
-                    at[a] - 1..=at[a] + 1
-                } else {
-                    at[a]..=at[a]
-                }
-            };
-            for z in near(2) {
-                for y in near(1) {
-                    for x in near(0) {
+            for z in self.near(at, 2) {
+                for y in self.near(at, 1) {
+                    for x in self.near(at, 0) {
                         let c = self.index_of([x, y, z]);
                         self.marks[c / 64] |= 1 << (c % 64);
                     }
@@ -195,6 +188,17 @@ impl<V: Vector> Escapes<V> {
             *at = (t as usize).min(self.cells[a] - 1);
         }
         Some(at)
+    }
+
+    /// The cells next to cell `at` on `axis`, and it, within the grid.
+    #[inline]
+    fn near(&self, at: [usize; 3], axis: usize) -> std::ops::RangeInclusive<usize> {
+        let c = at[axis];
+        if axis < V::DIM {
+            c.saturating_sub(1)..=(c + 1).min(self.cells[axis] - 1)
+        } else {
+            c..=c
+        }
     }
 
     #[inline]
@@ -222,16 +226,9 @@ impl<V: Vector> Escapes<V> {
         }
         let p = particle();
         let mut strikes = 0;
-        let span = |a: usize| {
-            if a < V::DIM {
-                at[a].saturating_sub(1)..=(at[a] + 1).min(self.cells[a] - 1)
-            } else {
-                at[a]..=at[a]
-            }
-        };
-        for z in span(2) {
-            for y in span(1) {
-                for x in span(0) {
+        for z in self.near(at, 2) {
+            for y in self.near(at, 1) {
+                for x in self.near(at, 0) {
                     let c = self.index_of([x, y, z]);
                     let first = self.by_cell.partition_point(|&(cell, _)| cell < c);
                     for &(_, k) in self.by_cell[first..].iter().take_while(|&&(d, _)| d == c) {
@@ -483,6 +480,26 @@ mod tests {
     fn the_grid_counts_every_strike_in_2d_and_3d() {
         the_grid_counts_as_brute_force::<DVec2>();
         the_grid_counts_as_brute_force::<DVec3>();
+    }
+
+    /// A lone escapee (its grid one cell of it and the margins), anywhere: the grid's edges
+    /// fall where rounding puts them, and its neighbours must still be inside.
+    #[test]
+    fn a_lone_escapee_strikes_its_neighbours_anywhere() {
+        for x in [0.0, 0.1, -7.7, 1e6 + 0.3, -123.456789] {
+            for (dx, dy) in [(1.5, 0.0), (-1.5, 0.0), (0.0, 1.9), (-1.0, -1.0)] {
+                let end = DVec2::new(x, x / 3.0);
+                let e = moved(0, end - DVec2::new(5.0, 0.0), end);
+                let at = end + DVec2::new(dx, dy);
+                let other = moved(1, at, at);
+                let mut escapes = Escapes {
+                    list: vec![e],
+                    ..Escapes::default()
+                };
+                escapes.index(1.0, 2, None);
+                assert_eq!(escapes.strikes_on(at, || other), 1, "at {x} + ({dx}, {dy})");
+            }
+        }
     }
 
     #[test]
