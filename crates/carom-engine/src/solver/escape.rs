@@ -107,9 +107,11 @@ pub(crate) struct Escapes<V> {
     marks: Vec<u64>,
     /// (cell, escapee) for every escapee, sorted.
     by_cell: Vec<(usize, u32)>,
-    /// The grid is not used across periodic seams: then every particle is checked against
-    /// every escapee.
+    /// The periodic axes, across whose seams the grid is not laid: then (and when the grid
+    /// would not fit) every particle is checked against every escapee.
     periodic: Option<Periodic>,
+    /// Whether the grid is laid.
+    grid: bool,
 }
 
 /// At most this many cells in the grid per particle checked (and at least [`FEWEST_CELLS`]):
@@ -121,6 +123,7 @@ impl<V: Vector> Escapes<V> {
     /// Lays the grid over `list`, for `particles` particles of radius up to `max_radius`.
     pub fn index(&mut self, max_radius: f64, particles: usize, periodic: Option<Periodic>) {
         self.periodic = periodic;
+        self.grid = false;
         if self.list.is_empty() || periodic.is_some() {
             return;
         }
@@ -140,18 +143,25 @@ impl<V: Vector> Escapes<V> {
         // (two cells of margin on each side: a particle in the nearer may be struck, and the
         // other keeps every escapee's neighbours inside the grid whatever the rounding)
         let count = |cell: f64| {
-            let mut cells = [1usize; 3];
+            let mut cells = [1.0f64; 3];
             for a in 0..V::DIM {
-                cells[a] = ((hi[a] - lo[a]) / cell) as usize + 5;
+                cells[a] = ((hi[a] - lo[a]) / cell).floor() + 5.0;
             }
             cells
         };
-        let most = (CELLS_PER_PARTICLE * particles).max(FEWEST_CELLS);
+        let most = (CELLS_PER_PARTICLE * particles).max(FEWEST_CELLS) as f64;
         let mut cells = count(cell);
-        while cells.iter().product::<usize>() > most {
+        while cells.iter().product::<f64>() > most {
             cell *= 2.0;
             cells = count(cell);
         }
+        // (a box too wide for any grid, or one that is not a number: every particle is checked
+        // against every escapee)
+        self.grid = cells.iter().all(|c| c.is_finite()) && cell.is_finite();
+        if !self.grid {
+            return;
+        }
+        let cells = cells.map(|c| c as usize);
         for l in lo.iter_mut().take(V::DIM) {
             *l -= 2.0 * cell;
         }
@@ -161,7 +171,12 @@ impl<V: Vector> Escapes<V> {
         self.marks.resize(total.div_ceil(64), 0);
         self.by_cell.clear();
         for k in 0..self.list.len() {
-            let at = (self.coordinates(self.list[k].end)).expect("an escapee lies in its grid");
+            // (every escapee lies in its grid but where rounding at the largest coordinates
+            // says otherwise: then the grid is not used)
+            let Some(at) = self.coordinates(self.list[k].end) else {
+                self.grid = false;
+                return;
+            };
             self.by_cell.push((self.index_of(at), k as u32));
             for z in self.near(at, 2) {
                 for y in self.near(at, 1) {
@@ -213,7 +228,7 @@ impl<V: Vector> Escapes<V> {
         if self.list.is_empty() {
             return 0;
         }
-        if self.periodic.is_some() {
+        if !self.grid {
             let (periodic, p) = (self.periodic.as_ref(), particle());
             return self.list.iter().filter(|e| e.strikes(&p, periodic)).count() as u64;
         }
@@ -499,6 +514,25 @@ mod tests {
                 escapes.index(1.0, 2, None);
                 assert_eq!(escapes.strikes_on(at, || other), 1, "at {x} + ({dx}, {dy})");
             }
+        }
+    }
+
+    /// Escapees too far apart for any grid (a fuzzed scene): every particle against every
+    /// escapee instead, no overflow.
+    #[test]
+    fn escapees_beyond_any_grid_are_still_checked() {
+        let far = DVec2::new(1e300, -1e300);
+        let list = vec![moved(0, DVec2::ZERO, DVec2::ZERO), moved(1, far, far)];
+        let at = DVec2::new(1.5, 0.0);
+        let other = moved(2, DVec2::new(3.0, 0.0), at);
+        for x in [f64::MAX, f64::INFINITY, f64::NAN] {
+            let mut escapes = Escapes {
+                list: list.clone(),
+                ..Escapes::default()
+            };
+            escapes.list[1].end = DVec2::new(x, x);
+            escapes.index(1.0, 3, None);
+            assert_eq!(escapes.strikes_on(at, || other), 1, "{x}");
         }
     }
 

@@ -39,6 +39,14 @@
 //! sweeps converge; sideways momentum is never touched). Impacts never
 //! take part: they keep the lecture's response.
 //!
+//! **Steps taken again** (see `escape`). Each particle's reach covers its own move and the
+//! pushes of the partners it starts the step with; a push passed down a chain of contacts can
+//! still drive it further, into a particle it has no contact with. When, after the move, a
+//! particle that went beyond its reach overlaps such a one, the step is taken back and taken
+//! again with that particle's reach covering its move (a few steps in a thousand of a pile
+//! under gravity; never in the lecture's own step, which finds such pairs after the move as
+//! its detection does).
+//!
 //! **Position phase** (the lecture's "solution 1", which it calls hard with many contacts):
 //! after the particles move, overlapping particles are moved apart along their normal, each by
 //! its share of inverse mass, down to a small slop, and pushed out of planes.
