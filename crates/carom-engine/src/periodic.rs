@@ -97,6 +97,12 @@ impl Periodic {
         periodic.map_or([0.0; 3], |p| p.length)
     }
 
+    /// The domain's lowest coordinate on `axis`.
+    #[inline]
+    pub fn low(&self, axis: usize) -> f64 {
+        self.min[axis]
+    }
+
     /// The period on `axis` (0 when it is not periodic).
     #[inline]
     pub fn length(&self, axis: usize) -> f64 {

@@ -98,19 +98,20 @@ impl<V: Vector> Moved<V> {
 pub(crate) struct Escapes<V> {
     /// The escapees (of every rank, in a split run).
     pub list: Vec<Moved<V>>,
-    /// The grid's lowest corner, cell edge (at least the largest distance at which a particle
-    /// can strike) and its inverse, and cells per axis (1 on unused axes).
+    /// The grid's lowest corner, the inverse of its cell edge on each axis (an edge at least
+    /// the largest distance at which a particle can strike), and cells per axis (1 on unused
+    /// axes). On a periodic axis the grid spans the period, its cells wrapping around.
     origin: [f64; 3],
-    inverse_cell: f64,
+    inverse_cell: [f64; 3],
     cells: [usize; 3],
     /// One bit per cell: whether it lies within one cell of an escapee's.
     marks: Vec<u64>,
     /// (cell, escapee) for every escapee, sorted.
     by_cell: Vec<(usize, u32)>,
-    /// The periodic axes, across whose seams the grid is not laid: then (and when the grid
-    /// would not fit) every particle is checked against every escapee.
+    /// The periodic axes, if any.
     periodic: Option<Periodic>,
-    /// Whether the grid is laid.
+    /// Whether the grid is laid (when it would not fit, every particle is checked against
+    /// every escapee).
     grid: bool,
 }
 
@@ -124,9 +125,10 @@ impl<V: Vector> Escapes<V> {
     pub fn index(&mut self, max_radius: f64, particles: usize, periodic: Option<Periodic>) {
         self.periodic = periodic;
         self.grid = false;
-        if self.list.is_empty() || periodic.is_some() {
+        if self.list.is_empty() {
             return;
         }
+        let period = |a: usize| periodic.map_or(0.0, |p| p.length(a));
         let largest = self.list.iter().fold(0.0f64, |m, e| m.max(e.radius));
         let mut cell = (largest + max_radius).max(f64::MIN_POSITIVE);
         let (mut lo, mut hi) = ([0.0f64; 3], [0.0f64; 3]);
@@ -142,10 +144,14 @@ impl<V: Vector> Escapes<V> {
         }
         // (two cells of margin on each side: a particle in the nearer may be struck, and the
         // other keeps every escapee's neighbours inside the grid whatever the rounding)
+        // (on a periodic axis, the period in cells no narrower than `cell`)
         let count = |cell: f64| {
             let mut cells = [1.0f64; 3];
             for a in 0..V::DIM {
-                cells[a] = ((hi[a] - lo[a]) / cell).floor() + 5.0;
+                cells[a] = match period(a) {
+                    0.0 => ((hi[a] - lo[a]) / cell).floor() + 5.0,
+                    length => (length / cell).floor(),
+                };
             }
             cells
         };
@@ -157,15 +163,25 @@ impl<V: Vector> Escapes<V> {
         }
         // (a box too wide for any grid, or one that is not a number: every particle is checked
         // against every escapee)
-        self.grid = cells.iter().all(|c| c.is_finite()) && cell.is_finite();
+        // (and a period of fewer than three cells, whose neighbours would repeat)
+        self.grid = cells.iter().all(|c| c.is_finite() && *c >= 1.0) && cell.is_finite();
+        self.grid &= (0..V::DIM).all(|a| period(a) == 0.0 || cells[a] >= 3.0);
         if !self.grid {
             return;
         }
         let cells = cells.map(|c| c as usize);
-        for l in lo.iter_mut().take(V::DIM) {
-            *l -= 2.0 * cell;
+        let mut inverse_cell = [1.0 / cell; 3];
+        for a in 0..V::DIM {
+            match (period(a), periodic) {
+                (0.0, _) => lo[a] -= 2.0 * cell,
+                (length, Some(p)) => {
+                    lo[a] = p.low(a);
+                    inverse_cell[a] = cells[a] as f64 / length;
+                }
+                (_, None) => unreachable!("a period without periodic axes"),
+            }
         }
-        (self.origin, self.inverse_cell, self.cells) = (lo, 1.0 / cell, cells);
+        (self.origin, self.inverse_cell, self.cells) = (lo, inverse_cell, cells);
         let total = cells.iter().product::<usize>();
         self.marks.clear();
         self.marks.resize(total.div_ceil(64), 0);
@@ -178,9 +194,10 @@ impl<V: Vector> Escapes<V> {
                 return;
             };
             self.by_cell.push((self.index_of(at), k as u32));
-            for z in self.near(at, 2) {
-                for y in self.near(at, 1) {
-                    for x in self.near(at, 0) {
+            let [(xs, nx), (ys, ny), (zs, nz)] = [0, 1, 2].map(|a| self.near(at, a));
+            for &z in &zs[..nz] {
+                for &y in &ys[..ny] {
+                    for &x in &xs[..nx] {
                         let c = self.index_of([x, y, z]);
                         self.marks[c / 64] |= 1 << (c % 64);
                     }
@@ -193,9 +210,10 @@ impl<V: Vector> Escapes<V> {
     /// The grid coordinates of the cell holding `x`, or `None` outside the grid.
     #[inline]
     fn coordinates(&self, x: V) -> Option<[usize; 3]> {
+        let x = self.periodic.map_or(x, |p| p.wrap(x));
         let mut at = [0usize; 3];
         for (a, at) in at.iter_mut().enumerate().take(V::DIM) {
-            let t = (x.get(a) - self.origin[a]) * self.inverse_cell;
+            let t = (x.get(a) - self.origin[a]) * self.inverse_cell[a];
             // (a NaN is outside too)
             if !(t >= 0.0 && t < self.cells[a] as f64) {
                 return None;
@@ -205,15 +223,20 @@ impl<V: Vector> Escapes<V> {
         Some(at)
     }
 
-    /// The cells next to cell `at` on `axis`, and it, within the grid.
+    /// Cell `at`'s coordinate on `axis` and its neighbours', within the grid (around it on a
+    /// periodic axis), and how many.
     #[inline]
-    fn near(&self, at: [usize; 3], axis: usize) -> std::ops::RangeInclusive<usize> {
-        let c = at[axis];
-        if axis < V::DIM {
-            c.saturating_sub(1)..=(c + 1).min(self.cells[axis] - 1)
-        } else {
-            c..=c
+    fn near(&self, at: [usize; 3], axis: usize) -> ([usize; 3], usize) {
+        let (c, n) = (at[axis], self.cells[axis]);
+        if axis >= V::DIM {
+            return ([c; 3], 1);
         }
+        if self.periodic.is_some_and(|p| p.is_periodic(axis)) {
+            return ([(c + n - 1) % n, c, (c + 1) % n], 3);
+        }
+        let first = c.saturating_sub(1);
+        let last = (c + 1).min(n - 1);
+        ([first, first + 1, first + 2], last - first + 1)
     }
 
     #[inline]
@@ -241,13 +264,15 @@ impl<V: Vector> Escapes<V> {
         }
         let p = particle();
         let mut strikes = 0;
-        for z in self.near(at, 2) {
-            for y in self.near(at, 1) {
-                for x in self.near(at, 0) {
+        let periodic = self.periodic.as_ref();
+        let [(xs, nx), (ys, ny), (zs, nz)] = [0, 1, 2].map(|a| self.near(at, a));
+        for &z in &zs[..nz] {
+            for &y in &ys[..ny] {
+                for &x in &xs[..nx] {
                     let c = self.index_of([x, y, z]);
                     let first = self.by_cell.partition_point(|&(cell, _)| cell < c);
                     for &(_, k) in self.by_cell[first..].iter().take_while(|&&(d, _)| d == c) {
-                        strikes += self.list[k as usize].strikes(&p, None) as u64;
+                        strikes += self.list[k as usize].strikes(&p, periodic) as u64;
                     }
                 }
             }
@@ -515,6 +540,46 @@ mod tests {
                 assert_eq!(escapes.strikes_on(at, || other), 1, "at {x} + ({dx}, {dy})");
             }
         }
+    }
+
+    /// In a box periodic on x (and, in 3D, z), pairs across the seams: the grid, wrapped,
+    /// counts what brute force with the nearest images counts.
+    fn the_periodic_grid_counts_as_brute_force<V: Vector>() {
+        let (lo, hi) = (V::from_slice(&[0.0; 3]), V::from_slice(&[30.5; 3]));
+        let domain = crate::domain::Aabb::new(lo, hi).unwrap();
+        let periodic = Periodic::new(&domain, &[true, false, true]).unwrap();
+        for seed in 1..6 {
+            let (mut list, mut particles) = scatter::<V>(seed);
+            for p in particles.iter_mut().chain(list.iter_mut()) {
+                (p.start, p.end) = (periodic.wrap(p.start), periodic.wrap(p.end));
+            }
+            let mut expected = 0;
+            for e in &list {
+                for p in &particles {
+                    expected += e.strikes(p, Some(&periodic)) as u64;
+                }
+            }
+            assert!(expected > 0, "seed {seed}: the scatter must strike");
+            let mut escapes = Escapes {
+                list,
+                ..Escapes::default()
+            };
+            escapes.index(1.0, particles.len(), Some(periodic));
+            assert!(escapes.grid, "a grid fits the period");
+            let ends: Vec<V> = particles.iter().map(|p| p.end).collect();
+            let lookup = |s: usize| particles[s];
+            assert_eq!(
+                escapes.strikes(&ends, false, lookup),
+                expected,
+                "seed {seed}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_periodic_grid_counts_every_strike_in_2d_and_3d() {
+        the_periodic_grid_counts_as_brute_force::<DVec2>();
+        the_periodic_grid_counts_as_brute_force::<DVec3>();
     }
 
     /// Escapees too far apart for any grid (a fuzzed scene): every particle against every
