@@ -394,6 +394,16 @@ fn bad_scenes_are_rejected_with_file_and_field() {
             "walls = true\n[solver]\nslep = true",
             "slep",
         ),
+        (
+            "walls = true",
+            "walls = true\n[solver]\nretakes = 9",
+            "solver.retakes",
+        ),
+        (
+            "walls = true",
+            "walls = true\n[solver]\nretakes = -1",
+            "solver.retakes",
+        ),
     ];
     for (from, to, field) in cases {
         assert!(GOOD.contains(from), "{from}");

@@ -11,7 +11,7 @@
 //! back up.
 
 use crate::diagnostics::StepStats;
-use crate::solver::{VelocitySolve, MOST_RETAKES};
+use crate::solver::VelocitySolve;
 use crate::timing::{Lap, PhaseTimes};
 use std::time::Duration;
 
@@ -34,11 +34,12 @@ pub(crate) trait Phases {
     fn remember(&mut self);
     /// Counts the step and reports it.
     fn finish(&mut self, solve: VelocitySolve, max_overlap: f64) -> StepStats;
-    /// After `integrate`: whether a particle went beyond its reach into one the step never
-    /// solved a contact with (see `solver::escape`). If so, puts the particles back where the
-    /// step started them, at the speeds it started them with, and raises those particles'
-    /// reaches for the step to be taken again.
-    fn take_back_escapes(&mut self) -> bool;
+    /// After `integrate`, the step tried `tries` times: whether a particle went beyond its
+    /// reach into one the step never solved a contact with (see `solver::escape`), and the
+    /// step may be taken again (`tries` is at most [`crate::WorldConfig::retakes`]). If so,
+    /// puts the particles back where the step started them, at the speeds it started them
+    /// with, and raises those particles' reaches for the step to be taken again.
+    fn take_back_escapes(&mut self, tries: u32) -> bool;
     /// Where the stepper's time went; `find_contacts` adds its `rows` itself.
     fn times(&mut self) -> &mut PhaseTimes;
 }
@@ -58,7 +59,7 @@ pub(crate) fn advance(stepper: &mut impl Phases) -> StepStats {
         let solve = stepper.integrate();
         motion += solve.motion;
         tries += 1;
-        let again = tries <= MOST_RETAKES && stepper.take_back_escapes();
+        let again = stepper.take_back_escapes(tries);
         integrate += clock.lap();
         if !again {
             break solve;

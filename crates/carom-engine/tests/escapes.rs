@@ -27,7 +27,12 @@ fn deepest<V: Vector>(w: &World<V>) -> f64 {
 /// `k = 0` the column goes on down with it at about 15, 0.25 a step: its foot, whose reach
 /// covered only its own slow fall, runs into the disc on the floor within the step.
 fn column_struck(restitution: f64) -> World<DVec2> {
+    column_struck_taken_again(restitution, carom_engine::world::DEFAULT_RETAKES)
+}
+
+fn column_struck_taken_again(restitution: f64, retakes: u32) -> World<DVec2> {
     let mut b = World::<DVec2>::builder()
+        .retakes(retakes)
         .dt(DT)
         .gravity(DVec2::new(0.0, -G))
         .restitution(restitution)
@@ -61,5 +66,20 @@ fn a_push_down_a_column_leaves_no_pair_deep_in_each_other() {
             assert!(d < most, "k = {k}: {d:.4} of r deep after step {step}");
             w.step();
         }
+    }
+}
+
+/// With `retakes = 0` no step is taken again, and the foot is left deep in the disc on the
+/// floor, found only after the move: what the retake is for.
+#[test]
+fn without_retakes_the_foot_is_left_deep() {
+    for (k, least) in [(0.0, 0.05), (0.5, 0.1)] {
+        let mut w = column_struck_taken_again(k, 0);
+        let mut most = 0.0f64;
+        for _ in 0..120 {
+            assert_eq!(w.step().retakes, 0);
+            most = most.max(deepest(&w));
+        }
+        assert!(most > least, "k = {k}: {most:.4} of r at most");
     }
 }

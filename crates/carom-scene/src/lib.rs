@@ -23,7 +23,7 @@ use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::grid::MAX_CELLS;
 use carom_engine::periodic::shortest_period;
 use carom_engine::world::{
-    DEFAULT_POSITION_ITERATIONS, DEFAULT_SUBSTEPS, DEFAULT_VELOCITY_ITERATIONS,
+    DEFAULT_POSITION_ITERATIONS, DEFAULT_RETAKES, DEFAULT_SUBSTEPS, DEFAULT_VELOCITY_ITERATIONS,
 };
 use carom_engine::{
     Aabb, BroadPhaseKind, EngineError, Particles, Periodic, Plane, Vector, World, WorldConfig,
@@ -101,6 +101,7 @@ impl<V: Vector> Scene<V> {
                 self.config.position_iterations,
             )
             .substeps(self.config.substeps)
+            .retakes(self.config.retakes)
             .sleep(self.config.sleep)
             .sleep_time(self.config.sleep_time)
             .broad_phase(self.config.broad_phase)
@@ -347,6 +348,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         velocity_iterations,
         position_iterations,
         substeps,
+        retakes,
         resting_speed,
         sleep,
         sleep_speed,
@@ -374,6 +376,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
             velocity_iterations,
             position_iterations,
             substeps,
+            retakes,
             domain,
             periodic,
             broad_phase,
@@ -457,11 +460,15 @@ fn broad_phase<V: Vector>(
     Ok((broad_phase, grid_cells))
 }
 
+/// The most `[solver] retakes` a scene may ask for: each costs up to a step again.
+const MOST_RETAKES: i64 = 8;
+
 /// `[solver]`, checked, with the defaults filled in.
 struct SolverSettings {
     velocity_iterations: u32,
     position_iterations: u32,
     substeps: u32,
+    retakes: u32,
     resting_speed: Option<f64>,
     sleep: bool,
     sleep_speed: Option<f64>,
@@ -475,12 +482,20 @@ fn solver(ctx: &Ctx, raw: &RawScene) -> Result<SolverSettings, SceneError> {
         DEFAULT_POSITION_ITERATIONS,
         DEFAULT_SUBSTEPS,
     );
+    let mut retakes = DEFAULT_RETAKES;
     if let Some(s) = &raw.solver {
         if let Some(n) = s.substeps {
             if !(1..=1000).contains(&n) {
                 return Err(ctx.err("solver.substeps", format!("must be in 1..=1000, got {n}")));
             }
             substeps = n as u32;
+        }
+        if let Some(n) = s.retakes {
+            if !(0..=MOST_RETAKES).contains(&n) {
+                let range = format!("must be in 0..={MOST_RETAKES}, got {n}");
+                return Err(ctx.err("solver.retakes", range));
+            }
+            retakes = n as u32;
         }
         if let Some(v) = s.velocity_iterations {
             if !(1..=1_000_000).contains(&v) {
@@ -522,6 +537,7 @@ fn solver(ctx: &Ctx, raw: &RawScene) -> Result<SolverSettings, SceneError> {
         velocity_iterations,
         position_iterations,
         substeps,
+        retakes,
         resting_speed,
         sleep,
         sleep_speed,

@@ -57,6 +57,7 @@ pub(crate) struct RawSolver {
     pub velocity_iterations: Option<i64>,
     pub position_iterations: Option<i64>,
     pub substeps: Option<i64>,
+    pub retakes: Option<i64>,
     pub resting_speed: Option<f64>,
     pub sleep: Option<bool>,
     pub sleep_speed: Option<f64>,

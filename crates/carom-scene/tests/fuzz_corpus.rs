@@ -40,6 +40,7 @@ const KEYS: &[&str] = &[
     "cells",
     "velocity_iterations",
     "position_iterations",
+    "retakes",
     "resting_speed",
     "sleep",
     "sleep_speed",

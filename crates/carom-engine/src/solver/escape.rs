@@ -13,7 +13,7 @@
 //! escapee overlaps, deeper than the tolerance, a particle that was beyond reach of it where
 //! the step started (a pair the step never solved), the step is taken back and taken again
 //! with every escapee's reach raised to cover its move ([`escape_reach`]), at most
-//! [`MOST_RETAKES`] times (see `step::advance`). A pair of particles that stayed within their
+//! [`crate::WorldConfig::retakes`] times (3 by default; see `step::advance`). A pair of particles that stayed within their
 //! reaches is a candidate or stays apart, so a step with no escapee is never taken again.
 //!
 //! Every decision here is a count over particles, the same whichever order, thread or rank
@@ -29,9 +29,6 @@ use rayon::prelude::*;
 /// How far (as a fraction of its radius) a particle may go beyond its reach, and how deep a
 /// pair the step never solved may overlap, before the step is taken again.
 pub(crate) const ESCAPE_TOLERANCE: f64 = 0.005;
-
-/// The most times one step is taken again.
-pub(crate) const MOST_RETAKES: u32 = 3;
 
 /// An escapee's reach when the step is taken again is this many times its move (plus its
 /// radius): taken again, it is stopped sooner by its new partners, but a partner may also

@@ -68,7 +68,7 @@ mod velocity;
 
 pub use settings::{SolverSettings, VelocitySolve, RESIDUAL_FRACTION, SLOP_FRACTION};
 
-pub(crate) use escape::{Moved, Retakes, StepStart, MOST_RETAKES};
+pub(crate) use escape::{Moved, Retakes, StepStart};
 pub(crate) use position::separate;
 pub(crate) use rows::{
     deepest_placed, moving_mass, prepare_plane_rows, prepare_rows, tally, Contacts, Moving,

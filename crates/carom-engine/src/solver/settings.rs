@@ -202,6 +202,8 @@ pub struct SolverSettings {
     pub position_iterations: u32,
     /// Substeps per step when contacts can rest (see the module notes), >= 1.
     pub substeps: u32,
+    /// The most times one step is taken again (see `escape`).
+    pub retakes: u32,
 }
 
 impl SolverSettings {

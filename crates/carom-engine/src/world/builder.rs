@@ -91,6 +91,11 @@ impl<V: Vector> WorldBuilder<V> {
         self.config.broad_phase = kind;
         self
     }
+    /// The most times one step is taken again (see [`WorldConfig::retakes`]); 0 never.
+    pub fn retakes(mut self, retakes: u32) -> Self {
+        self.config.retakes = retakes;
+        self
+    }
     /// Substeps per step (see [`WorldConfig::substeps`]), >= 1.
     pub fn substeps(mut self, substeps: u32) -> Self {
         self.config.substeps = substeps;

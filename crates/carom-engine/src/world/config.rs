@@ -25,6 +25,10 @@ pub struct WorldConfig<V> {
     /// Substeps per step when contacts can rest (gravity and some `k < 1`), >= 1: see
     /// [`crate::solver`]. The velocity sweep cap is shared among them.
     pub substeps: u32,
+    /// The most times one step is taken again when a push drove a particle beyond its reach
+    /// into one the step had no contact for (see [`crate::solver`]); 0 never takes a step
+    /// again. Only when contacts can rest (the lecture's step finds such pairs after the move).
+    pub retakes: u32,
     /// The simulation space; the grid covers it. `None`: the grid fits the particles.
     pub domain: Option<Aabb<V>>,
     /// Per axis (the first `DIM` entries), whether the domain wraps around on it (see
@@ -76,6 +80,7 @@ impl<V: Vector> WorldConfig<V> {
             velocity_iterations: self.velocity_iterations,
             position_iterations: self.position_iterations,
             substeps: self.substeps,
+            retakes: self.retakes,
         }
     }
 
@@ -105,6 +110,7 @@ impl<V: Vector> Default for WorldConfig<V> {
             velocity_iterations: DEFAULT_VELOCITY_ITERATIONS,
             position_iterations: DEFAULT_POSITION_ITERATIONS,
             substeps: DEFAULT_SUBSTEPS,
+            retakes: DEFAULT_RETAKES,
             domain: None,
             periodic: [false; 3],
             broad_phase: BroadPhaseKind::Grid,

@@ -54,6 +54,8 @@ pub const DEFAULT_VELOCITY_ITERATIONS: u32 = 32;
 pub const DEFAULT_POSITION_ITERATIONS: u32 = 4;
 /// Default substeps per step when contacts can rest (Box2D's default too).
 pub const DEFAULT_SUBSTEPS: u32 = 4;
+/// Default [`WorldConfig::retakes`].
+pub const DEFAULT_RETAKES: u32 = 3;
 /// Steps between two spatial sorts of the particle arrays.
 pub const REORDER_INTERVAL: u64 = 32;
 /// Smallest block of storage slots the solver hands to one task.

@@ -56,9 +56,11 @@ impl<V: Vector> Phases for World<V> {
             return;
         }
         if !self.retakes.begin_try() {
-            let raises = solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes);
+            let settings = self.config.solver_settings();
+            let retakes =
+                settings.retakes > 0 && solver::reach_covers_pushes(&settings, &self.planes);
             let p = &self.store;
-            (self.step_start).keep(raises, &p.position, &p.velocity, parallel);
+            (self.step_start).keep(retakes, &p.position, &p.velocity, parallel);
         }
         let within_reach = self.find_pairs(parallel);
         self.phase_times.bin += self.broad_phase.take_bin_time();
@@ -177,8 +179,9 @@ impl<V: Vector> Phases for World<V> {
         );
     }
 
-    fn take_back_escapes(&mut self) -> bool {
-        if self.all_asleep || self.step_start.position.is_empty() {
+    fn take_back_escapes(&mut self, tries: u32) -> bool {
+        let retakes = self.config.retakes;
+        if tries > retakes || self.all_asleep || self.step_start.position.is_empty() {
             return false;
         }
         let (parallel, p, n) = (self.parallel(), &self.store, self.store.len());

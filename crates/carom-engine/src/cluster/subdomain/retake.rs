@@ -16,9 +16,11 @@ impl<V: Vector> Subdomain<V> {
     pub(super) fn take_back_escapes<T: Transport + ?Sized>(
         &mut self,
         link: &mut Link<'_, T>,
+        tries: u32,
     ) -> bool {
         let settings = self.config.solver_settings();
-        if !solver::reach_covers_pushes(&settings, &self.planes) || self.reach.len() < self.own {
+        let covers = solver::reach_covers_pushes(&settings, &self.planes);
+        if tries > settings.retakes || !covers || self.reach.len() < self.own {
             return false;
         }
         let (own, search, window) = (self.own, &self.search, &self.window);

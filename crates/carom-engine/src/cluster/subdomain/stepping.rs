@@ -163,8 +163,8 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
         );
     }
 
-    fn take_back_escapes(&mut self) -> bool {
-        self.sub.take_back_escapes(self.link)
+    fn take_back_escapes(&mut self, tries: u32) -> bool {
+        self.sub.take_back_escapes(self.link, tries)
     }
 
     fn times(&mut self) -> &mut PhaseTimes {
