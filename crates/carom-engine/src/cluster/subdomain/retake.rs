@@ -20,9 +20,15 @@ impl<V: Vector> Subdomain<V> {
     ) -> bool {
         let settings = self.config.solver_settings();
         let covers = solver::reach_covers_pushes(&settings, &self.planes);
-        if tries > settings.retakes || !covers || self.reach.len() < self.own {
+        // (every rank decides this alike: the gather below is collective)
+        if tries > settings.retakes || !covers {
             return false;
         }
+        debug_assert_eq!(
+            self.reach.len(),
+            self.own,
+            "the search gave every own slot a reach"
+        );
         let (own, search, window) = (self.own, &self.search, &self.window);
         let (reach, ids) = (&self.reach, &self.ids);
         // (the search's own particles come first, in slot order, as the step found them)
