@@ -2,24 +2,19 @@
 //! drives a particle beyond its reach into one it had no contact with (see the solver's notes
 //! on escapes), so no pair is left deep in each other for the next step to find.
 
+#[allow(dead_code)] // (the shared test helpers this file does not call)
+mod support;
+
 use carom_engine::glam::DVec2;
 use carom_engine::{Aabb, Vector, World};
 
 const DT: f64 = 1.0 / 60.0;
 const G: f64 = 9.81;
 
-/// The deepest overlap, as a fraction of the smaller radius, by brute force.
+/// The deepest overlap, as a fraction of the radius (every disc here has radius 1), by brute
+/// force.
 fn deepest<V: Vector>(w: &World<V>) -> f64 {
-    let p = w.particles();
-    let (x, r) = (p.positions(), p.radii());
-    let mut deepest = 0.0f64;
-    for i in 0..x.len() {
-        for j in i + 1..x.len() {
-            let d = (x[i] - x[j]).length_squared().sqrt();
-            deepest = deepest.max((r[i] + r[j] - d) / r[i].min(r[j]));
-        }
-    }
-    deepest
+    support::max_overlap(w)
 }
 
 /// In a channel one diameter wide, a disc at rest on the floor; 0.1 above it, a column of
