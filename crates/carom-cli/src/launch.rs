@@ -80,7 +80,7 @@ pub fn run_world<V: Vector>(
     progress.set_position(world.steps_taken());
     let driven = drive(&mut world, steps, outputs, &progress)?;
     progress.finish_and_clear();
-    finish(&world, run, before, &driven)
+    finish(&mut world, run, before, &driven)
 }
 
 /// The one world of a run that is not split over threads.

@@ -120,7 +120,7 @@ impl<V: Vector, T: Transport + Send> Stepper<V> for Split<V, T> {
         self.part.steps_taken()
     }
 
-    fn world(&mut self) -> Option<&World<V>> {
+    fn world(&mut self) -> Option<&mut World<V>> {
         let steps = self.part.steps_taken();
         if self.gathered_at != Some(steps) {
             if let Some(snapshot) = self.part.gather(&mut self.transport) {
@@ -131,7 +131,7 @@ impl<V: Vector, T: Transport + Send> Stepper<V> for Split<V, T> {
             }
             self.gathered_at = Some(steps);
         }
-        (self.transport.rank() == 0).then_some(&self.world)
+        (self.transport.rank() == 0).then_some(&mut self.world)
     }
 
     fn observe(&mut self) -> Option<carom_engine::Observables> {

@@ -56,7 +56,7 @@ impl<V: Vector> Before<V> {
 
 /// After the loop: the final CSV (unless interrupted), the summary, and the exit status.
 pub fn finish<V: Vector>(
-    world: &World<V>,
+    world: &mut World<V>,
     run: &Labels,
     before: Before<V>,
     driven: &Driven,
@@ -72,11 +72,19 @@ pub fn finish<V: Vector>(
         interrupt::write_whole(out, |w| carom_output::write_state_csv(world.particles(), w))
             .map_err(|e| Failure::write(out, e))?;
     }
+    // (over every pair, not only the last step's contacts; not for a run of no steps, whose
+    // summary reports no overlap)
+    let end_overlap = if driven.steps_run > 0 {
+        world.deepest_overlap()
+    } else {
+        0.0
+    };
     let summary = summary::Summary {
         run,
         world,
         before: &before,
         driven,
+        end_overlap,
     };
     summary.print();
     Ok(())

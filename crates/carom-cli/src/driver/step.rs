@@ -32,7 +32,7 @@ pub trait Stepper<V: Vector> {
     /// Steps taken so far.
     fn steps_taken(&self) -> u64;
     /// The whole world as it is now, on the process that writes output (`None` on the others).
-    fn world(&mut self) -> Option<&World<V>>;
+    fn world(&mut self) -> Option<&mut World<V>>;
     /// A reading of the observables (see [`World::observe`]), closing the pressure's interval;
     /// `None` where there is none to take (a split run, which refuses `--observe`).
     fn observe(&mut self) -> Option<Observables>;
@@ -49,7 +49,7 @@ impl<V: Vector> Stepper<V> for World<V> {
     fn steps_taken(&self) -> u64 {
         World::steps_taken(self)
     }
-    fn world(&mut self) -> Option<&World<V>> {
+    fn world(&mut self) -> Option<&mut World<V>> {
         Some(self)
     }
     fn observe(&mut self) -> Option<Observables> {
@@ -117,10 +117,10 @@ pub struct Driven {
     pub capped_steps: u64,
     /// Particle-particle collisions (see `carom_engine::observe`).
     pub collisions_total: u64,
-    /// The deepest overlap left by the last step, and the deepest seen in any state of the run
-    /// (a step's own contacts at its end, and every pair found at its start: see
-    /// `StepStats::found_overlap`), as fractions of the smaller radius.
-    pub last_overlap: f64,
+    /// The deepest overlap seen in any state of the run (a step's own contacts at its end, and
+    /// every pair found at its start: see `StepStats::found_overlap`), as a fraction of the
+    /// smaller radius. (The summary measures the end over every pair: see
+    /// `World::deepest_overlap`.)
     pub worst_overlap: f64,
     /// The last step that hit the velocity sweep cap.
     pub last_capped: Option<u64>,
@@ -148,7 +148,6 @@ impl Driven {
         self.contacts_max = self.contacts_max.max(stats.contacts);
         self.capped_steps += stats.capped as u64;
         self.collisions_total += stats.collisions;
-        self.last_overlap = stats.max_overlap;
         self.worst_overlap = (self.worst_overlap)
             .max(stats.max_overlap)
             .max(stats.found_overlap);

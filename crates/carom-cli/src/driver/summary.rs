@@ -15,6 +15,9 @@ pub struct Summary<'a, V: Vector> {
     pub before: &'a Before<V>,
     /// What the loop saw.
     pub driven: &'a Driven,
+    /// The deepest overlap at the end over every pair (see `World::deepest_overlap`), as a
+    /// fraction of the smaller radius.
+    pub end_overlap: f64,
 }
 
 impl<V: Vector> Summary<'_, V> {
@@ -110,8 +113,8 @@ impl<V: Vector> Summary<'_, V> {
         }
         println!(
             "overlap     {:.3}% of the smaller radius at the end, {:.3}% at most",
-            d.last_overlap * 100.0,
-            d.worst_overlap * 100.0
+            self.end_overlap * 100.0,
+            d.worst_overlap.max(self.end_overlap) * 100.0
         );
         if d.retaken_steps > 0 {
             println!(

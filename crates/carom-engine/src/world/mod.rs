@@ -492,7 +492,7 @@ impl<V: Vector> World<V> {
     pub fn observe(&mut self) -> Observables {
         let max_overlap = match self.last_overlap {
             Some(overlap) => overlap,
-            None => self.overlap_now(),
+            None => self.deepest_overlap(),
         };
         let volume = self
             .config
@@ -518,9 +518,14 @@ impl<V: Vector> World<V> {
         self.tally
     }
 
-    /// The deepest overlap among the particles as they are, by a search of its own (before
-    /// the first step, which measures it as it goes).
-    fn overlap_now(&mut self) -> f64 {
+    /// The deepest particle-particle overlap among the particles as they are, over every pair
+    /// (a search of its own), as a fraction of the smaller radius; 0 when nothing overlaps.
+    ///
+    /// A step measures its overlap as it goes ([`StepStats::max_overlap`]), but over its own
+    /// contact candidates only: a pair that a push drove together from beyond their reach in
+    /// the last step is found by the next step's search (see [`StepStats::found_overlap`]),
+    /// and this one. Changes nothing in the world (the next step searches afresh).
+    pub fn deepest_overlap(&mut self) -> f64 {
         let mut pairs = Vec::new();
         self.broad_phase.find_pairs_in(
             &self.store.position,
