@@ -303,8 +303,9 @@ fn golden_hash_2d() {
     // the restitution pass left met impacts' changes within the residual tolerance undone; and
     // when planes took every particle within a radius beyond its reach as a candidate; and when
     // reaches were raised to the partners' speeds; and when a pair impact's restitution became
-    // `k` times the impulse that stopped it, capped at its isolated bounce)
-    const GOLDEN: u64 = 0xc660_6bcc_fbb4_ff88;
+    // `k` times the impulse that stopped it, capped at its isolated bounce; and when the default
+    // position sweeps went from 4 to 8)
+    const GOLDEN: u64 = 0xdd8e_4dda_f8d8_9439;
     let mut w = golden_scene::<DVec2>();
     for _ in 0..200 {
         w.step();
@@ -319,8 +320,9 @@ fn golden_hash_3d() {
     // resting speed, and when it left met impacts' changes within the residual tolerance
     // undone, and when planes took every particle within a radius beyond its reach as a
     // candidate, and when a pair impact's restitution became `k` times the impulse that
-    // stopped it, capped at its isolated bounce)
-    const GOLDEN: u64 = 0x989b_cbed_44e3_d6d0;
+    // stopped it, capped at its isolated bounce, and when the default position sweeps went
+    // from 4 to 8)
+    const GOLDEN: u64 = 0xa191_0160_820f_721a;
     let mut w = golden_scene::<DVec3>();
     for _ in 0..200 {
         w.step();
@@ -334,8 +336,8 @@ fn golden_hash_3d() {
 #[test]
 fn golden_hash_elastic_2d() {
     // (changed when the lecture's step kept only the candidates that close in, or that a wall
-    // may turn within the move)
-    const GOLDEN: u64 = 0x260b_370c_fa76_87db;
+    // may turn within the move, and when the default position sweeps went from 4 to 8)
+    const GOLDEN: u64 = 0x8b32_86dc_f011_9666;
     let bodies = mixed_bodies::<DVec2>(400, 40.0, 6.0, 2024);
     let b = World::<DVec2>::builder()
         .dt(0.005)
@@ -354,7 +356,8 @@ fn golden_hash_elastic_2d() {
 /// the lecture's step with the candidates that close in (see `solver::LectureCandidates`).
 #[test]
 fn golden_hash_gas_2d() {
-    const GOLDEN: u64 = 0x3728_2b74_82bb_71e4;
+    // (changed when the default position sweeps went from 4 to 8)
+    const GOLDEN: u64 = 0xe72b_dd15_497d_f50e;
     let bodies = mixed_bodies::<DVec2>(400, 40.0, 6.0, 2024);
     let b = World::<DVec2>::builder()
         .dt(0.005)
