@@ -99,6 +99,10 @@ class World:
         """The last step's touching pairs, shape (M, 2), ids `a < b`, sorted: those the
         lecture's detection finds overlapping (`distance < r1 + r2`) at the start of the
         step's velocity phase. (0, 2) before the first step; islands asleep are not listed."""
+    def deepest_overlap(self) -> float:
+        """The deepest particle-particle overlap in the state as it is, over every pair, as a
+        fraction of the smaller radius (0.0 when nothing overlaps); what `carom run` prints
+        "at the end"."""
     def observe(self) -> Dict[str, Union[int, float]]:
         """One row of `carom run --observe`: `step`, `time`, `kinetic_energy`,
         `potential_energy`, `temperature`, `collisions` (since the first reading), `pressure`

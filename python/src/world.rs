@@ -372,6 +372,15 @@ impl World {
         Ok(array.into_pyarray(py))
     }
 
+    /// The deepest particle-particle overlap in the state as it is, over every pair, as a
+    /// fraction of the smaller radius (0.0 when nothing overlaps): `(r_a + r_b - |x_a - x_b|)
+    /// / min(r_a, r_b)`, by a search of its own. The figure `carom run` prints "at the end".
+    /// (A step measures its overlap over its own contact candidates only; see `observe`.)
+    fn deepest_overlap(&self) -> PyResult<f64> {
+        let mut state = self.lock()?;
+        Ok(with_world!(&mut state.world, w => w.deepest_overlap()))
+    }
+
     /// One reading of the observables, as a row of `carom run --observe FILE --every K`.
     ///
     /// A dict with `step` (int), `time`, `kinetic_energy`, `potential_energy`, `temperature`

@@ -75,6 +75,26 @@ def test_observe_has_what_carom_run_observe_writes(world):
     assert world.observe()["collisions"] >= o["collisions"]
 
 
+def test_the_deepest_overlap_is_over_every_pair():
+    world = carom.from_toml(SMALL_PILE)
+
+    def brute():
+        x, r = world.positions, world.radii
+        worst = 0.0
+        for a in range(len(r)):
+            d = np.linalg.norm(x[a + 1:] - x[a], axis=1)
+            depth = (r[a] + r[a + 1:] - d) / np.minimum(r[a], r[a + 1:])
+            worst = max([worst, *depth])
+        return worst
+
+    seen = 0.0
+    for _ in range(12):
+        assert world.deepest_overlap() == pytest.approx(brute(), abs=1e-12)
+        seen = max(seen, world.deepest_overlap())
+        world.step(25)
+    assert seen > 0.0, "the pile must overlap somewhere for the test to mean anything"
+
+
 def test_pressure_without_a_domain_is_nan():
     world = carom.preset("lecture_example_2")
     assert np.isnan(world.observe()["pressure"])
