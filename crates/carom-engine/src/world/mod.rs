@@ -50,15 +50,10 @@ use std::hash::Hasher;
 
 /// Default cap on velocity sweeps per step.
 pub const DEFAULT_VELOCITY_ITERATIONS: u32 = 32;
-/// Default position-correction sweeps per step (a cap: the sweeps stop once nothing moves,
-/// and after the first they visit only the contacts whose particles moved). 8, not 4, since
-/// steps are taken again when a push outruns a reach: over 47 fill seeds of the lecture pile
-/// (k = 0.5, dt = 1/60) the deepest overlap at the end went from 0.204 / 1.418 % of r
-/// (median / worst) to 0.141 / 1.019 %, of any state from 1.895 / 3.019 % to 1.562 / 2.923 %,
-/// and the seeds with a capped step in the last 600 from 5 to 2; at k = 0 (20 seeds) the
-/// deepest of any state from 0.782 / 2.060 % to 0.508 / 0.833 %. (Before those retakes, 8
-/// sweeps traded one seed's miss for another's.) The position phase of 10^6 falling discs
-/// took 7.5 ms a step against 6.9.
+/// Default position-correction sweeps per step: a cap (they stop once nothing moves). 8, not
+/// 4, since steps are taken again when a push outruns a reach: over 47 fill seeds of the lecture
+/// pile the deepest overlap at the end went from 1.418 to 1.019 % of r at worst, and of any
+/// state from 3.019 to 2.923 % (docs/benchmarks.md, twenty-eighth sitting).
 pub const DEFAULT_POSITION_ITERATIONS: u32 = 8;
 /// Default substeps per step when contacts can rest (Box2D's default too).
 pub const DEFAULT_SUBSTEPS: u32 = 4;
