@@ -43,8 +43,14 @@ class World:
     of the same world from another thread raises RuntimeError.
     """
 
-    def step(self, n: int = 1) -> None:
+    def step(self, n: int = 1) -> Dict[str, Union[int, float]]:
         """Advance by `n` time steps (`n * dt` time units), as `carom run` does.
+
+        Returns what the steps saw, summed as `carom run`'s summary sums it: `steps`,
+        `capped_steps` (velocity sweeps stopped at their cap), `retaken_steps` (taken again
+        because a push drove a particle beyond its reach), `collisions`, `max_overlap` (the
+        deepest overlap of any state passed through, a fraction of the smaller radius) and
+        `asleep` (particles asleep in the last step).
 
         The GIL is released while the engine works. In the main thread, Ctrl-C
         (KeyboardInterrupt, or an exception raised by any signal handler) stops the loop

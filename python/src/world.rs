@@ -137,13 +137,54 @@ pub(crate) fn build(py: Python<'_>, text: String, origin: String) -> PyResult<Wo
     ))
 }
 
+/// What a call of `World.step(n)` saw, summed over its steps as `carom run`'s summary sums
+/// them.
+#[derive(Debug, Default)]
+pub(crate) struct Seen {
+    steps: u64,
+    capped_steps: u64,
+    retaken_steps: u64,
+    collisions: u64,
+    /// The deepest overlap of any state the steps passed through (each step's own contacts
+    /// at its end, every pair found at its start), a fraction of the smaller radius.
+    max_overlap: f64,
+    /// Particles asleep in the last step.
+    asleep: usize,
+}
+
+impl Seen {
+    fn record(&mut self, stats: &carom_engine::StepStats) {
+        self.steps += 1;
+        self.capped_steps += stats.capped as u64;
+        self.retaken_steps += (stats.retakes > 0) as u64;
+        self.collisions += stats.collisions;
+        self.max_overlap = (self.max_overlap)
+            .max(stats.max_overlap)
+            .max(stats.found_overlap);
+        self.asleep = stats.asleep;
+    }
+
+    /// As a dict for Python.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("steps", self.steps)?;
+        d.set_item("capped_steps", self.capped_steps)?;
+        d.set_item("retaken_steps", self.retaken_steps)?;
+        d.set_item("collisions", self.collisions)?;
+        d.set_item("max_overlap", self.max_overlap)?;
+        d.set_item("asleep", self.asleep)?;
+        Ok(d)
+    }
+}
+
 /// Steps `world` until `left` is 0 or [`CHUNK`] has passed, on the rayon pool as `carom run`
-/// steps (see `Stepper::run_loop` in the CLI).
-pub(crate) fn run_chunk(world: &mut AnyWorld, left: &mut u64) {
+/// steps (see `Stepper::run_loop` in the CLI), recording what each step saw in `seen`.
+pub(crate) fn run_chunk(world: &mut AnyWorld, left: &mut u64, seen: &mut Seen) {
     rayon::scope(|_| {
         let started = Instant::now();
         while *left > 0 {
-            with_world!(&mut *world, w => { w.step(); });
+            let stats = with_world!(&mut *world, w => w.step());
+            seen.record(&stats);
             *left -= 1;
             if started.elapsed() >= CHUNK {
                 break;
@@ -197,8 +238,16 @@ impl World {
     /// raises) stops the loop between two steps, within 50 ms or one step: the exception
     /// propagates and the world is left at a whole step (`steps` says which), ready to step
     /// on or to checkpoint.
+    ///
+    /// Returns what the steps saw, as `carom run`'s summary sums it: a dict with `steps`
+    /// (int), `capped_steps` (int: steps whose velocity sweeps stopped at their cap),
+    /// `retaken_steps` (int: steps taken again because a push drove a particle beyond its
+    /// reach), `collisions` (int: particle-particle impacts), `max_overlap` (the deepest
+    /// overlap of any state the steps passed through, a fraction of the smaller radius; see
+    /// `deepest_overlap` for the state as it is) and `asleep` (int: particles asleep in the
+    /// last step).
     #[pyo3(signature = (n = 1))]
-    fn step(&self, py: Python<'_>, n: i64) -> PyResult<()> {
+    fn step<'py>(&self, py: Python<'py>, n: i64) -> PyResult<Bound<'py, PyDict>> {
         if n < 0 {
             return Err(PyValueError::new_err(format!(
                 "n: the number of steps must be >= 0, got {n}"
@@ -207,11 +256,12 @@ impl World {
         let mut guard = self.lock()?;
         let state: &mut State = &mut guard;
         let mut left = n as u64;
+        let mut seen = Seen::default();
         while left > 0 {
             let world = &mut state.world;
-            let left_ref = &mut left;
-            let outcome =
-                py.detach(|| catch_unwind(AssertUnwindSafe(|| run_chunk(world, left_ref))));
+            let (left_ref, seen_ref) = (&mut left, &mut seen);
+            let outcome = py
+                .detach(|| catch_unwind(AssertUnwindSafe(|| run_chunk(world, left_ref, seen_ref))));
             if let Err(payload) = outcome {
                 let why = panic_text(&*payload);
                 state.broken = Some(why.clone());
@@ -224,7 +274,7 @@ impl World {
                 py.check_signals()?;
             }
         }
-        Ok(())
+        seen.to_dict(py)
     }
 
     /// Particle positions: float64 array of shape (N, d), in id order (length units).

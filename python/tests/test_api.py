@@ -95,6 +95,23 @@ def test_the_deepest_overlap_is_over_every_pair():
     assert seen > 0.0, "the pile must overlap somewhere for the test to mean anything"
 
 
+def test_step_returns_what_the_steps_saw():
+    world = carom.from_toml(SMALL_PILE)
+    assert world.step(0) == {
+        "steps": 0, "capped_steps": 0, "retaken_steps": 0, "collisions": 0,
+        "max_overlap": 0.0, "asleep": 0,
+    }
+    seen = [world.step(100) for _ in range(6)]
+    assert all(s["steps"] == 100 for s in seen)
+    assert all(0 <= s["capped_steps"] <= 100 and 0 <= s["retaken_steps"] <= 100 for s in seen)
+    assert all(isinstance(s["asleep"], int) for s in seen)
+    # (the fill falls into a pile: impacts first, every disc asleep by the end, and the deepest
+    # overlap of those states at least that of the state they end in)
+    assert seen[0]["collisions"] > 0 and seen[0]["max_overlap"] > 0.0
+    assert seen[-1]["asleep"] == 120
+    assert seen[-1]["max_overlap"] >= world.deepest_overlap()
+
+
 def test_pressure_without_a_domain_is_nan():
     world = carom.preset("lecture_example_2")
     assert np.isnan(world.observe()["pressure"])
