@@ -158,9 +158,7 @@ impl Seen {
         self.capped_steps += stats.capped as u64;
         self.retaken_steps += (stats.retakes > 0) as u64;
         self.collisions += stats.collisions;
-        self.max_overlap = (self.max_overlap)
-            .max(stats.max_overlap)
-            .max(stats.found_overlap);
+        self.max_overlap = self.max_overlap.max(stats.deepest_seen());
         self.asleep = stats.asleep;
     }
 

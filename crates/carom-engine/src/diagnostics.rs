@@ -84,6 +84,15 @@ pub struct StepStats {
     pub retakes: u32,
 }
 
+impl StepStats {
+    /// The deepest overlap of any state the step passed through: its own contacts at its end
+    /// ([`StepStats::max_overlap`]) and every pair it found at its start
+    /// ([`StepStats::found_overlap`]), as a fraction of the smaller radius.
+    pub fn deepest_seen(&self) -> f64 {
+        self.max_overlap.max(self.found_overlap)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -148,9 +148,7 @@ impl Driven {
         self.contacts_max = self.contacts_max.max(stats.contacts);
         self.capped_steps += stats.capped as u64;
         self.collisions_total += stats.collisions;
-        self.worst_overlap = (self.worst_overlap)
-            .max(stats.max_overlap)
-            .max(stats.found_overlap);
+        self.worst_overlap = self.worst_overlap.max(stats.deepest_seen());
         if stats.capped {
             self.last_capped = Some(step);
         }

@@ -191,14 +191,9 @@ impl<V: Vector> Escapes<V> {
                 return;
             };
             self.by_cell.push((self.index_of(at), k as u32));
-            let [(xs, nx), (ys, ny), (zs, nz)] = [0, 1, 2].map(|a| self.near(at, a));
-            for &z in &zs[..nz] {
-                for &y in &ys[..ny] {
-                    for &x in &xs[..nx] {
-                        let c = self.index_of([x, y, z]);
-                        self.marks[c / 64] |= 1 << (c % 64);
-                    }
-                }
+            let (around, count) = self.cells_around(at);
+            for &c in &around[..count] {
+                self.marks[c / 64] |= 1 << (c % 64);
             }
         }
         self.by_cell.sort_unstable();
@@ -241,6 +236,23 @@ impl<V: Vector> Escapes<V> {
         (z * self.cells[1] + y) * self.cells[0] + x
     }
 
+    /// The indices of cell `at` and its neighbours (see [`Escapes::near`]), z, then y, then
+    /// x ascending, and how many: what an escapee marks and what a particle looks in.
+    #[inline]
+    fn cells_around(&self, at: [usize; 3]) -> ([usize; 27], usize) {
+        let [(xs, nx), (ys, ny), (zs, nz)] = [0, 1, 2].map(|a| self.near(at, a));
+        let (mut around, mut count) = ([0; 27], 0);
+        for &z in &zs[..nz] {
+            for &y in &ys[..ny] {
+                for &x in &xs[..nx] {
+                    around[count] = self.index_of([x, y, z]);
+                    count += 1;
+                }
+            }
+        }
+        (around, count)
+    }
+
     /// How many escapees strike the particle that ended at `end` (`particle()` gives the
     /// rest of it; see [`Moved::strikes`]).
     #[inline]
@@ -262,16 +274,11 @@ impl<V: Vector> Escapes<V> {
         let p = particle();
         let mut strikes = 0;
         let periodic = self.periodic.as_ref();
-        let [(xs, nx), (ys, ny), (zs, nz)] = [0, 1, 2].map(|a| self.near(at, a));
-        for &z in &zs[..nz] {
-            for &y in &ys[..ny] {
-                for &x in &xs[..nx] {
-                    let c = self.index_of([x, y, z]);
-                    let first = self.by_cell.partition_point(|&(cell, _)| cell < c);
-                    for &(_, k) in self.by_cell[first..].iter().take_while(|&&(d, _)| d == c) {
-                        strikes += self.list[k as usize].strikes(&p, periodic) as u64;
-                    }
-                }
+        let (around, count) = self.cells_around(at);
+        for &c in &around[..count] {
+            let first = self.by_cell.partition_point(|&(cell, _)| cell < c);
+            for &(_, k) in self.by_cell[first..].iter().take_while(|&&(d, _)| d == c) {
+                strikes += self.list[k as usize].strikes(&p, periodic) as u64;
             }
         }
         strikes
