@@ -122,6 +122,32 @@ fn default_scene_runs_with_a_summary() {
     assert!(out.stderr.is_empty(), "no progress bar when not a terminal");
 }
 
+/// The default scene's pile rests a hair apart: the summary counts its pairs as pushing, not
+/// as overlapping (it read "0.00 per step on average" while up to 152 pairs held the pile up).
+#[test]
+fn the_summary_counts_a_resting_pile_as_pushing() {
+    let out = run_ok(&["run"]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("contacts"))
+        .unwrap_or_else(|| panic!("no contacts line in:\n{text}"));
+    // "contacts    A overlapping per step on average, B at most; C pushing, D at most..."
+    let numbers: Vec<f64> = line
+        .split([' ', ',', ';'])
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    let [overlapping, _, pushing, most_pushing] = numbers[..4] else {
+        panic!("{line}")
+    };
+    assert!(
+        line.contains("overlapping") && line.contains("pushing"),
+        "{line}"
+    );
+    assert!(pushing > 10.0 * overlapping.max(0.1), "{line}");
+    assert!(most_pushing >= 100.0, "{line}");
+}
+
 /// A particle faster than its radius a step is named in the summary, with how fast; a calm
 /// run has no such line.
 #[test]

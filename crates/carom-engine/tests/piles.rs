@@ -463,3 +463,38 @@ fn a_lively_pile_at_k_near_1_never_makes_energy() {
         }
     }
 }
+
+/// Every pair of a column at rest on a floor pushes ([`StepStats::pushing`]), carrying the
+/// weight above it, whether or not the lecture's detection finds it overlapping
+/// ([`StepStats::contacts`]); asleep, nothing pushes.
+///
+/// [`StepStats::contacts`]: carom_engine::StepStats::contacts
+/// [`StepStats::pushing`]: carom_engine::StepStats::pushing
+#[test]
+fn every_pair_of_a_resting_column_pushes() {
+    let column = |sleep: bool| {
+        let mut b = World::<DVec2>::builder()
+            .dt(DT)
+            .gravity(DVec2::new(0.0, -G))
+            .restitution(0.5)
+            .sleep(sleep)
+            .domain(Aabb::new(DVec2::new(-1.01, 0.0), DVec2::new(1.01, 40.0)).unwrap())
+            .walls(0.5);
+        for k in 0..10 {
+            b = b.particle(DVec2::new(0.0, 1.0 + 2.0 * k as f64), DVec2::ZERO, 1.0, 1.0);
+        }
+        b.build().unwrap()
+    };
+    let mut w = column(false);
+    let mut last = w.step();
+    for _ in 0..60 {
+        last = w.step();
+    }
+    assert_eq!(last.pushing, 9, "{last:?}");
+    let mut w = column(true);
+    for _ in 0..600 {
+        last = w.step();
+    }
+    assert_eq!(last.asleep, 10, "{last:?}");
+    assert_eq!(last.pushing, 0, "{last:?}");
+}

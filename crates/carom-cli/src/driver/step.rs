@@ -114,6 +114,9 @@ pub struct Driven {
     pub steps_run: u64,
     pub contacts_total: u64,
     pub contacts_max: usize,
+    /// Pairs that pushed each other, summed over the steps (see `StepStats::pushing`).
+    pub pushing_total: u64,
+    pub pushing_max: usize,
     pub capped_steps: u64,
     /// Particle-particle collisions (see `carom_engine::observe`).
     pub collisions_total: u64,
@@ -146,6 +149,8 @@ impl Driven {
         self.steps_run += 1;
         self.contacts_total += stats.contacts as u64;
         self.contacts_max = self.contacts_max.max(stats.contacts);
+        self.pushing_total += stats.pushing as u64;
+        self.pushing_max = self.pushing_max.max(stats.pushing);
         self.capped_steps += stats.capped as u64;
         self.collisions_total += stats.collisions;
         self.worst_overlap = self.worst_overlap.max(stats.deepest_seen());

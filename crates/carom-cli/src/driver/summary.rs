@@ -69,10 +69,14 @@ impl<V: Vector> Summary<'_, V> {
             d.seconds,
             d.seconds * 1e3 / steps as f64
         );
+        // (a pile rests a hair apart, within the slop: few of its pairs overlap, most push)
         println!(
-            "contacts    {:.2} per step on average, {} at most{}",
+            "contacts    {:.2} overlapping per step on average, {} at most; {:.2} pushing, {} at \
+             most{}",
             d.contacts_total as f64 / steps as f64,
             d.contacts_max,
+            d.pushing_total as f64 / steps as f64,
+            d.pushing_max,
             match d.last_capped {
                 Some(last) if d.capped_steps > 0 => format!(
                     ", iteration cap reached in {} steps (the last at step {last})",

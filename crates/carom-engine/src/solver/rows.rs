@@ -162,6 +162,14 @@ impl<V: Vector> Row<V> {
     pub fn collided(&self) -> bool {
         self.impact || (self.struck && self.met)
     }
+
+    /// True when this pair pushed this step: the lecture's response answered an approach, the
+    /// sweeps gave it an impulse, or it holds one (a remembered impulse the sweeps left as it
+    /// was).
+    #[inline]
+    pub fn pushed(&self) -> bool {
+        self.impact || self.met || self.impulse > 0.0
+    }
 }
 
 impl RowRecord {
@@ -325,6 +333,8 @@ pub(crate) struct RowTally {
     pub touching: u64,
     /// Particle-particle collisions (see [`Row::collided`]).
     pub collisions: u64,
+    /// Rows that pushed this step (see [`Row::pushed`]).
+    pub pushing: u64,
     /// The collisional virial `sum J_ij . r_ij` (0 unless asked for).
     pub virial: f64,
 }
@@ -335,12 +345,12 @@ pub(crate) struct RowTally {
 /// every record as well as every row: one pass over both on one thread took most of the
 /// 5 ms a step of bookkeeping at 10^6 falling discs.)
 pub(crate) fn tally<V: Vector>(rows: &Rows<V>, parallel: bool, with_virial: bool) -> RowTally {
-    let count = |row: &Row<V>| (row.touching as u64, row.collided() as u64);
-    let add = |(a, b): (u64, u64), (c, d): (u64, u64)| (a + c, b + d);
-    let (touching, collisions) = if parallel {
-        rows.row.par_iter().map(count).reduce(|| (0, 0), add)
+    let count = |row: &Row<V>| [row.touching, row.collided(), row.pushed()].map(u64::from);
+    let add = |a: [u64; 3], b: [u64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+    let [touching, collisions, pushing] = if parallel {
+        rows.row.par_iter().map(count).reduce(|| [0; 3], add)
     } else {
-        rows.row.iter().map(count).fold((0, 0), add)
+        rows.row.iter().map(count).fold([0; 3], add)
     };
     let virial = if with_virial {
         let both = rows.row.iter().zip(&rows.record);
@@ -353,6 +363,7 @@ pub(crate) fn tally<V: Vector>(rows: &Rows<V>, parallel: bool, with_virial: bool
     RowTally {
         touching,
         collisions,
+        pushing,
         virial,
     }
 }

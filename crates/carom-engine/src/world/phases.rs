@@ -237,10 +237,10 @@ impl<V: Vector> Phases for World<V> {
         }
         // (all asleep: everything is at rest, no collision, no virial, no thermal motion)
         let rows = solver::tally(&self.rows, self.parallel(), self.tally.observing);
-        let (collisions, virial) = if self.all_asleep {
-            (0, 0.0)
+        let (collisions, pushing, virial) = if self.all_asleep {
+            (0, 0, 0.0)
         } else {
-            (rows.collisions, rows.virial)
+            (rows.collisions, rows.pushing, rows.virial)
         };
         if self.tally.observing {
             let thermal = if self.all_asleep {
@@ -260,6 +260,7 @@ impl<V: Vector> Phases for World<V> {
             asleep: self.sleepers.count,
             contacts: rows.touching as usize,
             plane_contacts: self.plane_rows.iter().filter(|r| r.touching).count(),
+            pushing: pushing as usize,
             velocity_iterations: solve.iterations,
             responses: solve.responses,
             collisions,

@@ -193,11 +193,13 @@ impl<V: Vector, T: Transport + ?Sized> Phases for Stepping<'_, '_, '_, V, T> {
             on_planes,
             s.sleepers.count as u64,
             rows.collisions,
+            rows.pushing,
         ]);
         StepStats {
             asleep: counts[2] as usize,
             contacts: counts[0] as usize,
             plane_contacts: counts[1] as usize,
+            pushing: counts[4] as usize,
             velocity_iterations: solve.iterations,
             responses: solve.responses,
             collisions: counts[3],
