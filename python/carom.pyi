@@ -49,8 +49,10 @@ class World:
         Returns what the steps saw, summed as `carom run`'s summary sums it: `steps`,
         `capped_steps` (velocity sweeps stopped at their cap), `retaken_steps` (taken again
         because a push drove a particle beyond its reach), `collisions`, `max_overlap` (the
-        deepest overlap of any state passed through, a fraction of the smaller radius) and
-        `asleep` (particles asleep in the last step).
+        deepest overlap of any state passed through, a fraction of the smaller radius),
+        `asleep` (particles asleep in the last step) and `pushing` (particle pairs that pushed
+        each other in the last step: impacts and contacts carrying weight, overlapping or a
+        hair apart).
 
         The GIL is released while the engine works. In the main thread, Ctrl-C
         (KeyboardInterrupt, or an exception raised by any signal handler) stops the loop

@@ -150,6 +150,8 @@ pub(crate) struct Seen {
     max_overlap: f64,
     /// Particles asleep in the last step.
     asleep: usize,
+    /// Pairs that pushed each other in the last step (see `StepStats::pushing`).
+    pushing: usize,
 }
 
 impl Seen {
@@ -160,6 +162,7 @@ impl Seen {
         self.collisions += stats.collisions;
         self.max_overlap = self.max_overlap.max(stats.deepest_seen());
         self.asleep = stats.asleep;
+        self.pushing = stats.pushing;
     }
 
     /// As a dict for Python.
@@ -171,6 +174,7 @@ impl Seen {
         d.set_item("collisions", self.collisions)?;
         d.set_item("max_overlap", self.max_overlap)?;
         d.set_item("asleep", self.asleep)?;
+        d.set_item("pushing", self.pushing)?;
         Ok(d)
     }
 }

@@ -99,7 +99,7 @@ def test_step_returns_what_the_steps_saw():
     world = carom.from_toml(SMALL_PILE)
     assert world.step(0) == {
         "steps": 0, "capped_steps": 0, "retaken_steps": 0, "collisions": 0,
-        "max_overlap": 0.0, "asleep": 0,
+        "max_overlap": 0.0, "asleep": 0, "pushing": 0,
     }
     seen = [world.step(100) for _ in range(6)]
     assert all(s["steps"] == 100 for s in seen)
@@ -109,6 +109,8 @@ def test_step_returns_what_the_steps_saw():
     # overlap of those states at least that of the state they end in)
     assert seen[0]["collisions"] > 0 and seen[0]["max_overlap"] > 0.0
     assert seen[-1]["asleep"] == 120
+    # (the pile pushes while it settles; asleep, nothing does)
+    assert seen[0]["pushing"] > 0 and seen[-1]["pushing"] == 0
     assert seen[-1]["max_overlap"] >= world.deepest_overlap()
 
 
