@@ -122,6 +122,28 @@ fn elastic_walled_2d_gas_under_gravity_is_bit_identical_on_2_and_3_ranks() {
     );
 }
 
+/// The same gas with the lecture's step covering pushes (`cover_pushes`): reaches raised to
+/// the partners' speeds, every pair within reach a candidate, and steps taken again, which
+/// this gas needs within its first steps.
+#[test]
+fn a_gas_covering_pushes_is_bit_identical_on_2_ranks() {
+    let build = || {
+        walled::<DVec2>(5000, 100.0, 3.0)
+            .restitution(1.0)
+            .walls(1.0)
+            .cover_pushes(true)
+            .build()
+            .unwrap()
+    };
+    let mut w = build();
+    let retaken = (0..40).filter(|_| w.step().retakes > 0).count();
+    assert!(
+        retaken > 0,
+        "no step was taken again: the test would mean little"
+    );
+    check_identical(build, 40, &[2]);
+}
+
 #[test]
 fn open_3d_cloud_with_the_hash_is_bit_identical() {
     let build = || {

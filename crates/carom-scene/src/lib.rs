@@ -102,6 +102,7 @@ impl<V: Vector> Scene<V> {
             )
             .substeps(self.config.substeps)
             .retakes(self.config.retakes)
+            .cover_pushes(self.config.cover_pushes)
             .sleep(self.config.sleep)
             .sleep_time(self.config.sleep_time)
             .broad_phase(self.config.broad_phase)
@@ -349,6 +350,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         position_iterations,
         substeps,
         retakes,
+        cover_pushes,
         resting_speed,
         sleep,
         sleep_speed,
@@ -377,6 +379,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
             position_iterations,
             substeps,
             retakes,
+            cover_pushes,
             domain,
             periodic,
             broad_phase,
@@ -469,6 +472,7 @@ struct SolverSettings {
     position_iterations: u32,
     substeps: u32,
     retakes: u32,
+    cover_pushes: bool,
     resting_speed: Option<f64>,
     sleep: bool,
     sleep_speed: Option<f64>,
@@ -523,6 +527,7 @@ fn solver(ctx: &Ctx, raw: &RawScene) -> Result<SolverSettings, SceneError> {
     };
 
     let solver = raw.solver.as_ref();
+    let cover_pushes = solver.and_then(|s| s.cover_pushes).unwrap_or(false);
     let sleep = solver.and_then(|s| s.sleep).unwrap_or(true);
     let sleep_speed = match solver.and_then(|s| s.sleep_speed) {
         Some(v) => Some(ctx.positive("solver.sleep_speed", v)?),
@@ -538,6 +543,7 @@ fn solver(ctx: &Ctx, raw: &RawScene) -> Result<SolverSettings, SceneError> {
         position_iterations,
         substeps,
         retakes,
+        cover_pushes,
         resting_speed,
         sleep,
         sleep_speed,

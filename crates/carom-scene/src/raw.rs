@@ -58,6 +58,7 @@ pub(crate) struct RawSolver {
     pub position_iterations: Option<i64>,
     pub substeps: Option<i64>,
     pub retakes: Option<i64>,
+    pub cover_pushes: Option<bool>,
     pub resting_speed: Option<f64>,
     pub sleep: Option<bool>,
     pub sleep_speed: Option<f64>,

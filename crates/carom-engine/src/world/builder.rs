@@ -96,6 +96,12 @@ impl<V: Vector> WorldBuilder<V> {
         self.config.retakes = retakes;
         self
     }
+
+    /// Whether the lecture's step covers pushes (see [`WorldConfig::cover_pushes`]).
+    pub fn cover_pushes(mut self, on: bool) -> Self {
+        self.config.cover_pushes = on;
+        self
+    }
     /// Substeps per step (see [`WorldConfig::substeps`]), >= 1.
     pub fn substeps(mut self, substeps: u32) -> Self {
         self.config.substeps = substeps;

@@ -27,8 +27,16 @@ pub struct WorldConfig<V> {
     pub substeps: u32,
     /// The most times one step is taken again when a push drove a particle beyond its reach
     /// into one the step had no contact for (see [`crate::solver`]); 0 never takes a step
-    /// again. Only when contacts can rest (the lecture's step finds such pairs after the move).
+    /// again. Only when contacts can rest or [`WorldConfig::cover_pushes`] says so (the
+    /// lecture's step finds such pairs after the move).
     pub retakes: u32,
+    /// Whether the lecture's step (no gravity, or `k = 1` with elastic planes) covers pushes
+    /// as a step where contacts can rest always does: each particle's contact candidates then
+    /// cover what its partners can push it to within the step, and the step is taken again
+    /// when a push still outruns them (see [`crate::solver`]). Off by default: the lecture's
+    /// detection finds a pair a push drove together overlapping on the next step, and a dense
+    /// gas under gravity ends steps with such pairs deep in each other.
+    pub cover_pushes: bool,
     /// The simulation space; the grid covers it. `None`: the grid fits the particles.
     pub domain: Option<Aabb<V>>,
     /// Per axis (the first `DIM` entries), whether the domain wraps around on it (see
@@ -81,6 +89,7 @@ impl<V: Vector> WorldConfig<V> {
             position_iterations: self.position_iterations,
             substeps: self.substeps,
             retakes: self.retakes,
+            cover_pushes: self.cover_pushes,
         }
     }
 
@@ -111,6 +120,7 @@ impl<V: Vector> Default for WorldConfig<V> {
             position_iterations: DEFAULT_POSITION_ITERATIONS,
             substeps: DEFAULT_SUBSTEPS,
             retakes: DEFAULT_RETAKES,
+            cover_pushes: false,
             domain: None,
             periodic: [false; 3],
             broad_phase: BroadPhaseKind::Grid,
