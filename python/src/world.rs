@@ -246,8 +246,9 @@ impl World {
     /// `retaken_steps` (int: steps taken again because a push drove a particle beyond its
     /// reach), `collisions` (int: particle-particle impacts), `max_overlap` (the deepest
     /// overlap of any state the steps passed through, a fraction of the smaller radius; see
-    /// `deepest_overlap` for the state as it is) and `asleep` (int: particles asleep in the
-    /// last step).
+    /// `deepest_overlap` for the state as it is), `asleep` (int: particles asleep in the
+    /// last step) and `pushing` (int: particle pairs that pushed each other in the last step,
+    /// impacts and contacts carrying weight, overlapping or a hair apart).
     #[pyo3(signature = (n = 1))]
     fn step<'py>(&self, py: Python<'py>, n: i64) -> PyResult<Bound<'py, PyDict>> {
         if n < 0 {

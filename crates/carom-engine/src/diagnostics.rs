@@ -51,8 +51,9 @@ pub struct StepStats {
     pub contacts: usize,
     /// Particles touching a plane at the start of the velocity phase.
     pub plane_contacts: usize,
-    /// Particle pairs that pushed each other this step: every contact that took an impulse in
-    /// the velocity phase, impacts and resting contacts alike (0 while the whole world sleeps).
+    /// Particle pairs that pushed each other this step: every contact the lecture's response
+    /// answered, the sweeps met with an impulse, or that holds a remembered impulse, impacts
+    /// and resting contacts alike (0 while the whole world sleeps).
     /// A pile whose contacts still open and close holds many of its pairs a hair apart
     /// (within the slop, see [`crate::solver::SLOP_FRACTION`]): they push without overlapping,
     /// and [`StepStats::contacts`] does not count them.

@@ -315,8 +315,8 @@ pub(crate) struct StepStart<V> {
 }
 
 impl<V: Vector> StepStart<V> {
-    /// Keeps `position` and `velocity` when `keep` (contacts can rest); otherwise lets the
-    /// copies go.
+    /// Keeps `position` and `velocity` when `keep` (steps may be taken again: reaches cover
+    /// pushes, see [`super::reach_covers_pushes`]); otherwise lets the copies go.
     pub fn keep(&mut self, keep: bool, position: &[V], velocity: &[V], parallel: bool) {
         if !keep {
             *self = Self::default();

@@ -44,8 +44,8 @@
 //! still drive it further, into a particle it has no contact with. When, after the move, a
 //! particle that went beyond its reach overlaps such a one, the step is taken back and taken
 //! again with that particle's reach covering its move (a few steps in a thousand of a pile
-//! under gravity; never in the lecture's own step, which finds such pairs after the move as
-//! its detection does).
+//! under gravity; in the lecture's own step only with [`crate::WorldConfig::cover_pushes`]:
+//! without it, that step finds such pairs after the move, as its detection does).
 //!
 //! **Position phase** (the lecture's "solution 1", which it calls hard with many contacts):
 //! after the particles move, overlapping particles are moved apart along their normal, each by

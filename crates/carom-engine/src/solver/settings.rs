@@ -110,8 +110,9 @@ pub(crate) struct LectureCandidates<'a, V> {
 }
 
 impl<'a, V: Vector> LectureCandidates<'a, V> {
-    /// The test for a step of `dt`, or `None` when contacts can rest (every pair within reach
-    /// is then a candidate, with its reach raised: see [`raise_to_partners`]).
+    /// The test for a step of `dt`, or `None` when reaches cover pushes (see
+    /// [`reach_covers_pushes`]: every pair within reach is then a candidate, with its reach
+    /// raised, see [`raise_to_partners`]).
     pub(crate) fn new(
         settings: &SolverSettings,
         planes: &'a [Plane<V>],

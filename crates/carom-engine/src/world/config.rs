@@ -30,7 +30,8 @@ pub struct WorldConfig<V> {
     /// again. Only when contacts can rest or [`WorldConfig::cover_pushes`] says so (the
     /// lecture's step finds such pairs after the move).
     pub retakes: u32,
-    /// Whether the lecture's step (no gravity, or `k = 1` with elastic planes) covers pushes
+    /// Whether the lecture's step (no gravity, `k = 1` with elastic planes, or a resting speed
+    /// of 0) covers pushes
     /// as a step where contacts can rest always does: each particle's contact candidates then
     /// cover what its partners can push it to within the step, and the step is taken again
     /// when a push still outruns them (see [`crate::solver`]). Off by default: the lecture's

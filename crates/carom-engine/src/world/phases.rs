@@ -275,9 +275,9 @@ impl<V: Vector> Phases for World<V> {
 
 impl<V: Vector> World<V> {
     /// This step's pairs within reach (see [`solver::reach`]), the reaches raised to the
-    /// partners' speeds when contacts can rest (see [`solver::raise_to_partners`]); returns
-    /// whether they are every pair within reach (the lecture's step keeps only those that
-    /// close in).
+    /// partners' speeds when contacts can rest or the lecture's step covers pushes (see
+    /// [`solver::reach_covers_pushes`]); returns whether they are every pair within reach (the
+    /// lecture's step otherwise keeps only those that close in).
     fn find_pairs(&mut self, parallel: bool) -> bool {
         let (dt, gravity) = (self.config.dt, self.config.gravity);
         let fall = gravity.length_squared().sqrt() * dt;
