@@ -122,21 +122,27 @@ fn default_scene_runs_with_a_summary() {
     assert!(out.stderr.is_empty(), "no progress bar when not a terminal");
 }
 
+/// The summary line of `text` that starts with `key`, and the numbers in it in order.
+fn summary_numbers<'a>(text: &'a str, key: &str) -> (&'a str, Vec<f64>) {
+    let line = text
+        .lines()
+        .find(|l| l.starts_with(key))
+        .unwrap_or_else(|| panic!("no {key} line in:\n{text}"));
+    let numbers = line
+        .split([' ', ',', ';', '%'])
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    (line, numbers)
+}
+
 /// The default scene's pile rests a hair apart: the summary counts its pairs as pushing, not
 /// as overlapping (it read "0.00 per step on average" while up to 152 pairs held the pile up).
 #[test]
 fn the_summary_counts_a_resting_pile_as_pushing() {
     let out = run_ok(&["run"]);
     let text = String::from_utf8(out.stdout).unwrap();
-    let line = text
-        .lines()
-        .find(|l| l.starts_with("contacts"))
-        .unwrap_or_else(|| panic!("no contacts line in:\n{text}"));
     // "contacts    A overlapping per step on average, B at most; C pushing, D at most..."
-    let numbers: Vec<f64> = line
-        .split([' ', ',', ';'])
-        .filter_map(|w| w.parse().ok())
-        .collect();
+    let (line, numbers) = summary_numbers(&text, "contacts");
     let [overlapping, _, pushing, most_pushing] = numbers[..4] else {
         panic!("{line}")
     };
@@ -166,13 +172,8 @@ fn covering_pushes_keeps_a_dense_elastic_gas_from_sinking_into_itself() {
         let out = run_ok(&["run", path.to_str().unwrap(), "--threads", "2"]);
         let text = String::from_utf8(out.stdout).unwrap();
         // "overlap     A% of the smaller radius at the end, B% at most"
-        let line = text.lines().find(|l| l.starts_with("overlap")).unwrap();
-        let most = line
-            .rsplit(", ")
-            .next()
-            .unwrap()
-            .trim_end_matches("% at most");
-        most.parse::<f64>().unwrap_or_else(|_| panic!("{line}"))
+        let (line, numbers) = summary_numbers(&text, "overlap");
+        *numbers.get(1).unwrap_or_else(|| panic!("{line}"))
     };
     let (lecture, covered) = (deepest(false), deepest(true));
     assert!(lecture > 5.0, "the lecture's step: {lecture} % at most");
