@@ -498,3 +498,41 @@ fn every_pair_of_a_resting_column_pushes() {
     assert_eq!(last.asleep, 10, "{last:?}");
     assert_eq!(last.pushing, 0, "{last:?}");
 }
+
+/// A column partly asleep: the top disc of a sleeping column, kicked up, falls back onto it
+/// and wakes the discs within reach of it. Only the pairs with an awake disc can push (two
+/// sleepers' contacts leave the solver), and once the top disc rests again every awake disc
+/// presses on the one below it: `pushing` counts those pairs, no more and no fewer.
+#[test]
+fn a_column_partly_asleep_pushes_only_where_awake() {
+    let mut b = World::<DVec2>::builder()
+        .dt(DT)
+        .gravity(DVec2::new(0.0, -G))
+        .restitution(0.5)
+        .domain(Aabb::new(DVec2::new(-1.01, 0.0), DVec2::new(1.01, 40.0)).unwrap())
+        .walls(0.5);
+    for k in 0..10 {
+        b = b.particle(DVec2::new(0.0, 1.0 + 2.0 * k as f64), DVec2::ZERO, 1.0, 1.0);
+    }
+    let mut w = b.build().unwrap();
+    for _ in 0..600 {
+        w.step();
+    }
+    assert_eq!(w.asleep(), 10);
+    w.set_velocity(9, DVec2::new(0.0, 3.0)).unwrap();
+    let mut resting_partly = 0;
+    for _ in 0..120 {
+        let s = w.step();
+        let awake = 10 - s.asleep;
+        // (the pairs with an awake disc are the awake discs' pairs with the disc below)
+        assert!(s.pushing <= awake, "{s:?}");
+        if s.asleep > 0 && awake > 1 && s.pushing == awake {
+            resting_partly += 1;
+        }
+    }
+    assert!(
+        resting_partly > 0,
+        "no step found the column partly asleep and pressing"
+    );
+    assert_eq!(w.asleep(), 10, "the column should sleep again");
+}
