@@ -283,46 +283,11 @@ impl<V: Vector> World<V> {
         let fall = gravity.length_squared().sqrt() * dt;
         let raises = solver::reach_covers_pushes(&self.config.solver_settings(), &self.planes);
         self.mark_still(parallel);
-        let p = &self.store;
-        self.reach.resize(p.len(), 0.0);
-        self.speed.resize(if raises { p.len() } else { 0 }, 0.0);
-        // (each particle's reach, its speed and its move in radii: see `StepStats::fastest_move`)
-        let one = |v: &V, r: f64| solver::reach_at(*v, r, fall, dt);
-        let particles = || p.velocity.par_iter().zip(p.radius.par_iter());
-        // (the speeds, when the search raises reaches, in the same pass: a square root per
-        // particle instead of one per partner the search finds, through a closure)
-        self.fastest_move = if raises {
-            let fill = |((out, speed), (v, &r)): ((&mut f64, &mut f64), (&V, &f64))| {
-                let moves;
-                (*out, *speed, moves) = one(v, r);
-                moves
-            };
-            if parallel {
-                let outs = self.reach.par_iter_mut().zip(self.speed.par_iter_mut());
-                outs.zip(particles()).map(fill).reduce(|| 0.0, f64::max)
-            } else {
-                let outs = self.reach.iter_mut().zip(self.speed.iter_mut());
-                let each = outs.zip(p.velocity.iter().zip(&p.radius)).map(fill);
-                each.fold(0.0, f64::max)
-            }
-        } else {
-            let fill = |(out, (v, &r)): (&mut f64, (&V, &f64))| {
-                let moves;
-                (*out, _, moves) = one(v, r);
-                moves
-            };
-            if parallel {
-                let each = self.reach.par_iter_mut().zip(particles()).map(fill);
-                each.reduce(|| 0.0, f64::max)
-            } else {
-                let outs = self.reach.iter_mut();
-                let each = outs.zip(p.velocity.iter().zip(&p.radius)).map(fill);
-                each.fold(0.0, f64::max)
-            }
-        };
+        self.fastest_move = self.measure_reaches(parallel, raises, fall, dt);
         if raises {
-            self.retakes.raise(&mut self.reach, &p.radius);
+            self.retakes.raise(&mut self.reach, &self.store.radius);
         }
+        let p = &self.store;
         let (position, radius) = (&p.position, &p.radius);
         let scratch = &mut self.sorter.scratch;
         let settings = self.config.solver_settings();
@@ -369,6 +334,49 @@ impl<V: Vector> World<V> {
                     &mut self.pairs_kept,
                 );
                 false
+            }
+        }
+    }
+
+    /// Each particle's reach (see [`solver::reach_at`]) into `self.reach`, and its speed into
+    /// `self.speed` when the search `raises` reaches (empty otherwise); returns the fastest
+    /// move in radii (see `StepStats::fastest_move`).
+    fn measure_reaches(&mut self, parallel: bool, raises: bool, fall: f64, dt: f64) -> f64 {
+        let p = &self.store;
+        self.reach.resize(p.len(), 0.0);
+        self.speed.resize(if raises { p.len() } else { 0 }, 0.0);
+        // (each particle's reach, its speed and its move in radii: see `StepStats::fastest_move`)
+        let one = |v: &V, r: f64| solver::reach_at(*v, r, fall, dt);
+        let particles = || p.velocity.par_iter().zip(p.radius.par_iter());
+        // (the speeds, when the search raises reaches, in the same pass: a square root per
+        // particle instead of one per partner the search finds, through a closure)
+        if raises {
+            let fill = |((out, speed), (v, &r)): ((&mut f64, &mut f64), (&V, &f64))| {
+                let moves;
+                (*out, *speed, moves) = one(v, r);
+                moves
+            };
+            if parallel {
+                let outs = self.reach.par_iter_mut().zip(self.speed.par_iter_mut());
+                outs.zip(particles()).map(fill).reduce(|| 0.0, f64::max)
+            } else {
+                let outs = self.reach.iter_mut().zip(self.speed.iter_mut());
+                let each = outs.zip(p.velocity.iter().zip(&p.radius)).map(fill);
+                each.fold(0.0, f64::max)
+            }
+        } else {
+            let fill = |(out, (v, &r)): (&mut f64, (&V, &f64))| {
+                let moves;
+                (*out, _, moves) = one(v, r);
+                moves
+            };
+            if parallel {
+                let each = self.reach.par_iter_mut().zip(particles()).map(fill);
+                each.reduce(|| 0.0, f64::max)
+            } else {
+                let outs = self.reach.iter_mut();
+                let each = outs.zip(p.velocity.iter().zip(&p.radius)).map(fill);
+                each.fold(0.0, f64::max)
             }
         }
     }
