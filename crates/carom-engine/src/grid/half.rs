@@ -267,7 +267,13 @@ impl<V: Vector> Grid<V> {
         } else {
             buffers.iter_mut().enumerate().for_each(work);
         }
-        let n = positions.len();
+        self.sort_walked_pairs(tasks, positions.len(), parallel, pairs);
+    }
+
+    /// Makes `pairs` the pairs the walk left in the first `tasks` buffers, sorted (by
+    /// counting when there are many: see [`COUNTING_ABOVE`]), for `n` particles.
+    fn sort_walked_pairs(&mut self, tasks: usize, n: usize, parallel: bool, pairs: &mut Vec<Pair>) {
+        let buffers = &mut self.buffers[..tasks];
         if buffers.iter().map(Vec::len).sum::<usize>() > n / COUNTING_ABOVE {
             let parts = if parallel {
                 rayon::current_num_threads()
