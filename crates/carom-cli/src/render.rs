@@ -200,7 +200,7 @@ pub fn render(args: &RenderArgs) -> Result<(), Failure> {
     }
     if !(args.pitch.is_finite() && args.pitch.abs() < 90.0) {
         return Err(Failure::input(format!(
-            "--pitch: must be within (-90, 90) degrees, got {}",
+            "--pitch: must be within (-90, 90) degrees, got {:?}",
             args.pitch
         )));
     }

@@ -43,7 +43,7 @@ pub fn view(args: &ViewArgs) -> Result<(), Failure> {
     let mut scene = crate::input::parse_scene(&text, &origin)?;
     if let Some(radius) = args.radius.filter(|r| !(r.is_finite() && *r > 0.0)) {
         return Err(Failure::input(format!(
-            "--radius: must be a finite number > 0, got {radius}"
+            "--radius: must be a finite number > 0, got {radius:?}"
         )));
     }
     if let Some(count) = args.count {

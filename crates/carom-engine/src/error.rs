@@ -9,7 +9,7 @@ pub enum EngineError {
     #[error("{0} must be finite (no NaN or infinity)")]
     NonFinite(&'static str),
     /// Radius must be > 0.
-    #[error("particle {index}: radius must be > 0, got {value}")]
+    #[error("particle {index}: radius must be > 0, got {value:?}")]
     Radius {
         /// Particle id.
         index: usize,
@@ -17,7 +17,7 @@ pub enum EngineError {
         value: f64,
     },
     /// Mass must be > 0.
-    #[error("particle {index}: mass must be > 0, got {value}")]
+    #[error("particle {index}: mass must be > 0, got {value:?}")]
     Mass {
         /// Particle id.
         index: usize,
@@ -28,10 +28,10 @@ pub enum EngineError {
     #[error("particle {0}: position and velocity must be finite")]
     ParticleNotFinite(usize),
     /// Restitution outside [0, 1].
-    #[error("restitution must be in [0, 1], got {0}")]
+    #[error("restitution must be in [0, 1], got {0:?}")]
     Restitution(f64),
     /// The time step must be > 0 and finite.
-    #[error("dt must be > 0, got {0}")]
+    #[error("dt must be > 0, got {0:?}")]
     TimeStep(f64),
     /// A plane normal of zero length.
     #[error("plane normal must not be zero")]
@@ -100,4 +100,20 @@ pub enum EngineError {
     /// More particles than ids (u32) can name.
     #[error("too many particles: {0} (at most {max})", max = u32::MAX)]
     TooManyParticles(usize),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A value out of range is shown as written (`1e300`), not as hundreds of digits.
+    #[test]
+    fn values_are_shown_short() {
+        let shown = [
+            EngineError::Restitution(1e300).to_string(),
+            EngineError::TimeStep(-1e-300).to_string(),
+        ];
+        assert!(shown[0].ends_with("got 1e300"), "{}", shown[0]);
+        assert!(shown[1].ends_with("got -1e-300"), "{}", shown[1]);
+    }
 }

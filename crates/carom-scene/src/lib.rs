@@ -201,7 +201,7 @@ pub const MIN_POSITIVE: f64 = 1e-15;
 
 fn out_of_scale(value: f64) -> String {
     format!(
-        "{value} is out of carom's range: magnitudes must be at most {MAX_MAGNITUDE:e} and \
+        "{value:?} is out of carom's range: magnitudes must be at most {MAX_MAGNITUDE:e} and \
          positive sizes at least {MIN_POSITIVE:e}, so that energies and distances stay finite"
     )
 }
@@ -249,7 +249,7 @@ impl Ctx<'_> {
             }
             Ok(value)
         } else {
-            Err(self.err(field, format!("must be a finite number > 0, got {value}")))
+            Err(self.err(field, format!("must be a finite number > 0, got {value:?}")))
         }
     }
 
@@ -260,7 +260,10 @@ impl Ctx<'_> {
             }
             Ok(value)
         } else {
-            Err(self.err(field, format!("must be a finite number >= 0, got {value}")))
+            Err(self.err(
+                field,
+                format!("must be a finite number >= 0, got {value:?}"),
+            ))
         }
     }
 
@@ -268,7 +271,7 @@ impl Ctx<'_> {
         if (0.0..=1.0).contains(&value) {
             Ok(value)
         } else {
-            Err(self.err(field, format!("must be in [0, 1], got {value}")))
+            Err(self.err(field, format!("must be in [0, 1], got {value:?}")))
         }
     }
 

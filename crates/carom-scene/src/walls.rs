@@ -60,8 +60,8 @@ impl<V: Vector> Walled<V> {
                 return Err(ctx.err(
                     format!("particles[{i}].position"),
                     format!(
-                        "{} = {c} puts the particle (radius {r}) outside the walls: its centre \
-                         must lie in [{lo}, {hi}] (the domain [{}, {}] less the radius)",
+                        "{} = {c:?} puts the particle (radius {r:?}) outside the walls: its centre \
+                         must lie in [{lo:?}, {hi:?}] (the domain [{:?}, {:?}] less the radius)",
                         AXES[a],
                         min.get(a),
                         max.get(a)
@@ -91,7 +91,7 @@ impl<V: Vector> Walled<V> {
             return Err(ctx.err(
                 format!("fill[{i}].{side}"),
                 format!(
-                    "{} = {value} is outside the walls (the domain's {side} is {limit} there): \
+                    "{} = {value:?} is outside the walls (the domain's {side} is {limit:?} there): \
                      a fill region must lie inside them",
                     AXES[a]
                 ),

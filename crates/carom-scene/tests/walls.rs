@@ -31,7 +31,7 @@ fn a_particle_outside_the_walls_is_refused() {
         "{text}"
     );
     assert!(
-        text.contains("x = 15") && text.contains("[-9, 9]"),
+        text.contains("x = 15.0") && text.contains("[-9.0, 9.0]"),
         "{text}"
     );
     // half out (the centre inside, the disc through the wall) is outside too
@@ -163,4 +163,35 @@ fn particles_behind_a_plane_are_refused() {
         "ok"
     )
     .is_ok());
+}
+
+/// A number out of range is shown as it was written, not as its decimal expansion (`1e308`,
+/// not 309 digits), in every message that quotes a value.
+#[test]
+fn numbers_out_of_range_are_shown_short() {
+    let particle =
+        |radius: &str| format!("[[particles]]\nposition = [0.0, 0.0]\nradius = {radius}\n");
+    let cases = [
+        (
+            box_2d(false, "", &particle("1e308")),
+            "1e308 is out of carom's range",
+        ),
+        (
+            box_2d(false, "", &particle("1e-300")),
+            "1e-300 is out of carom's range",
+        ),
+        (
+            "dimensions = 2\ndt = 0.01\nrestitution = 1e300\n".to_string(),
+            "must be in [0, 1], got 1e300",
+        ),
+        (
+            box_2d(false, "", &particle("-1e300")),
+            "must be a finite number > 0, got -1e300",
+        ),
+    ];
+    for (text, shown) in cases {
+        let e = refused(&text).to_string();
+        assert!(e.contains(shown), "{e}");
+        assert!(e.len() < 250, "{e}");
+    }
 }
