@@ -114,6 +114,30 @@ def test_step_returns_what_the_steps_saw():
     assert seen[-1]["max_overlap"] >= world.deepest_overlap()
 
 
+COLUMN = "\n".join(
+    ["dimensions = 2", "dt = 0.016666666666666666", "gravity = [0.0, -9.81]", "restitution = 0.5",
+     "[domain]", "min = [-1.01, 0.0]", "max = [1.01, 40.0]", "walls = true"]
+    + [f"[[particles]]\nposition = [0.0, {1.0 + 2.0 * k}]\nradius = 1.0" for k in range(10)]
+)
+
+
+def test_a_column_partly_asleep_pushes_only_where_awake():
+    # (the Rust test of the same name: a sleeping column's top disc kicked up lands again)
+    world = carom.from_toml(COLUMN)
+    assert world.step(600)["asleep"] == 10
+    v = world.velocities
+    v[9] = [0.0, 3.0]
+    world.set_velocities(v)
+    partly = 0
+    for _ in range(120):
+        seen = world.step(1)
+        awake = 10 - seen["asleep"]
+        assert seen["pushing"] <= awake
+        partly += 0 < seen["asleep"] and awake > 1 and seen["pushing"] == awake
+    assert partly > 0
+    assert world.step(1)["asleep"] == 10
+
+
 def test_pressure_without_a_domain_is_nan():
     world = carom.preset("lecture_example_2")
     assert np.isnan(world.observe()["pressure"])
