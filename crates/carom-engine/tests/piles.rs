@@ -7,7 +7,7 @@
 mod support;
 
 use carom_engine::glam::{DVec2, DVec3};
-use carom_engine::{Aabb, Vector, World};
+use carom_engine::{Aabb, Vector, World, WorldBuilder};
 use support::{scatter, Lcg};
 
 const DT: f64 = 1.0 / 60.0;
@@ -181,22 +181,28 @@ fn a_wide_3d_pour_falls_asleep_part_by_part() {
     comes_to_rest(b.build().unwrap(), 1200, false);
 }
 
+/// `count` discs of radius 1 stacked from the floor of a channel one diameter (plus 1 %)
+/// wide and `height` tall, at rest (g = 9.81, k = 0.5, dt = 1/60, walls of k = 0.5).
+fn channel_column(count: usize, height: f64) -> WorldBuilder<DVec2> {
+    let mut b = World::<DVec2>::builder()
+        .dt(DT)
+        .gravity(DVec2::new(0.0, -G))
+        .restitution(0.5)
+        .domain(Aabb::new(DVec2::new(-1.01, 0.0), DVec2::new(1.01, height)).unwrap())
+        .walls(0.5);
+    for k in 0..count {
+        b = b.particle(DVec2::new(0.0, 1.0 + 2.0 * k as f64), DVec2::ZERO, 1.0, 1.0);
+    }
+    b
+}
+
 /// Target 3: 100 discs stacked in a channel one diameter (plus 1%) wide hold their height for
 /// 60 s: the top sinks less than 1 % of r (measured: 0.000; 0.47 % with the shock sweep of
 /// 9307d7c, 2.8 % with today's run only once a step). Equal and opposite impulses alone let it sink 12 % while
 /// the remembered impulses caught up; the shock sweep holds it.
 #[test]
 fn a_column_of_100_discs_holds_for_a_minute() {
-    let mut b = World::<DVec2>::builder()
-        .dt(DT)
-        .gravity(DVec2::new(0.0, -G))
-        .restitution(0.5)
-        .domain(Aabb::new(DVec2::new(-1.01, 0.0), DVec2::new(1.01, 250.0)).unwrap())
-        .walls(0.5);
-    for k in 0..100 {
-        b = b.particle(DVec2::new(0.0, 1.0 + 2.0 * k as f64), DVec2::ZERO, 1.0, 1.0);
-    }
-    let mut w = b.build().unwrap();
+    let mut w = channel_column(100, 250.0).build().unwrap();
     let top = w.particle(99).0.y;
     for _ in 0..3600 {
         w.step();
@@ -361,17 +367,7 @@ fn six_hundred_hexagonal_rows_stand_still() {
 /// sweep it sank up to 0.66 r, then rose 0.33 r above its start, and never came to rest.)
 #[test]
 fn one_sweep_a_step_still_holds_a_column() {
-    let mut b = World::<DVec2>::builder()
-        .dt(DT)
-        .gravity(DVec2::new(0.0, -G))
-        .restitution(0.5)
-        .iterations(1, 4)
-        .substeps(1)
-        .domain(Aabb::new(DVec2::new(-1.01, 0.0), DVec2::new(1.01, 50.0)).unwrap())
-        .walls(0.5);
-    for k in 0..20 {
-        b = b.particle(DVec2::new(0.0, 1.0 + 2.0 * k as f64), DVec2::ZERO, 1.0, 1.0);
-    }
+    let b = channel_column(20, 50.0).iterations(1, 4).substeps(1);
     let mut w = b.build().unwrap();
     let top = w.particle(19).0.y;
     let mut deepest: f64 = 0.0;
@@ -472,19 +468,7 @@ fn a_lively_pile_at_k_near_1_never_makes_energy() {
 /// [`StepStats::pushing`]: carom_engine::StepStats::pushing
 #[test]
 fn every_pair_of_a_resting_column_pushes() {
-    let column = |sleep: bool| {
-        let mut b = World::<DVec2>::builder()
-            .dt(DT)
-            .gravity(DVec2::new(0.0, -G))
-            .restitution(0.5)
-            .sleep(sleep)
-            .domain(Aabb::new(DVec2::new(-1.01, 0.0), DVec2::new(1.01, 40.0)).unwrap())
-            .walls(0.5);
-        for k in 0..10 {
-            b = b.particle(DVec2::new(0.0, 1.0 + 2.0 * k as f64), DVec2::ZERO, 1.0, 1.0);
-        }
-        b.build().unwrap()
-    };
+    let column = |sleep: bool| channel_column(10, 40.0).sleep(sleep).build().unwrap();
     let mut w = column(false);
     let mut last = w.step();
     for _ in 0..60 {
@@ -505,16 +489,7 @@ fn every_pair_of_a_resting_column_pushes() {
 /// presses on the one below it: `pushing` counts those pairs, no more and no fewer.
 #[test]
 fn a_column_partly_asleep_pushes_only_where_awake() {
-    let mut b = World::<DVec2>::builder()
-        .dt(DT)
-        .gravity(DVec2::new(0.0, -G))
-        .restitution(0.5)
-        .domain(Aabb::new(DVec2::new(-1.01, 0.0), DVec2::new(1.01, 40.0)).unwrap())
-        .walls(0.5);
-    for k in 0..10 {
-        b = b.particle(DVec2::new(0.0, 1.0 + 2.0 * k as f64), DVec2::ZERO, 1.0, 1.0);
-    }
-    let mut w = b.build().unwrap();
+    let mut w = channel_column(10, 40.0).build().unwrap();
     for _ in 0..600 {
         w.step();
     }

@@ -90,7 +90,9 @@ pub fn refill(text: &str, count: u64, radius: f64) -> Result<String, String> {
         ));
     }
     if !(radius.is_finite() && radius > 0.0) {
-        return Err(format!("radius must be a finite number > 0, got {radius:?}"));
+        return Err(format!(
+            "radius must be a finite number > 0, got {radius:?}"
+        ));
     }
     let mut table: toml::Table = text.parse().map_err(|e| format!("scene text: {e}"))?;
     let dims = table
