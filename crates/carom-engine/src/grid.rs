@@ -20,6 +20,7 @@
 mod half;
 mod periodic;
 mod raised;
+mod sizes;
 
 use crate::broadphase::{
     collect_pairs, keep_tail, retain_pairs, search_raise_search, BroadPhase, CellScratch, Pair,

@@ -17,10 +17,9 @@
 //! and periodic grids). The lecture's 5000 discs in the 100x100 grid, `carom run` of 1500
 //! steps: 0.88x the time of the search by particle (`farm-bench -n 10 --vs`, same bits).
 //!
-//! A few large particles among many small ones (the lecture's 100 discs of radius 3 among 4900
-//! of radius 1, in the same grid) would make every pair up to 4 cells apart: then the small
-//! ones' pairs are walked this way and the large ones search particle by particle
-//! ([`Grid::search_by_sizes`]); the lecture's demo at k = 1, 3000 steps: 0.89x the time.
+//! A few large particles among many small ones would make every pair up to 4 cells apart:
+//! then the small ones' pairs are walked this way and the large ones search particle by
+//! particle (see [`super::sizes`]).
 //!
 //! Across periodic seams the cells after a cell wrap round (each periodic axis needs three
 //! cells or more), and a pair is tested at the minimum image its lower particle sees, as every
@@ -33,11 +32,8 @@
 //! gas, 2 threads: the broad phase took 41 ms a step with the search by particle, 30 with this
 //! one, the sort of its pairs included.)
 
-use super::raised::merge_kept_into;
-use super::{for_each_near, scan_run, Grid, GridLayout};
-use crate::broadphase::{
-    collect_pairs, gather, keep_headroom, keep_tail, Pair, PairFilter, PARALLEL_SEARCH_MIN,
-};
+use super::{scan_run, Grid, GridLayout};
+use crate::broadphase::{gather, keep_headroom, Pair, PairFilter, PARALLEL_SEARCH_MIN};
 use crate::bucket::sort_pairs_by_counting;
 use crate::response::is_overlapping;
 use crate::vector::Vector;
@@ -55,7 +51,7 @@ const FEWEST_TASKS: usize = 16;
 /// How much wider than the largest `r_i + r_j` a cell must be for the search from one side:
 /// the cells' bounds are rounded (a relative error of a few ulps of the cell count, at most
 /// 2^28 cells a side), and this leaves a pair never more than one cell apart on any axis.
-const WIDTH_MARGIN: f64 = 1e-6;
+pub(super) const WIDTH_MARGIN: f64 = 1e-6;
 
 impl GridLayout {
     /// True when no two particles of radius at most `max_radius` can touch from cells more
@@ -96,73 +92,6 @@ impl<V: Vector> Grid<V> {
             1 => (0..V::DIM).all(|a| !wraps(a) || self.layout.cells[a] >= 3),
             apart => apart <= MOST_CELLS_APART && !(0..V::DIM).any(wraps),
         }
-    }
-
-    /// The largest radius of the *small* particles, when a search by sizes (see
-    /// [`Grid::search_by_sizes`]) can take this layout: the cells hold pairs of two small
-    /// particles at most [`MOST_CELLS_APART`] apart, and the others, the *large*, are at most
-    /// one in [`FEWEST_SMALL_PER_LARGE`]. (The buckets must be built, without periodic axes.)
-    pub(super) fn small_radius(&self, radii: &[f64]) -> Option<f64> {
-        let narrowest = (0..V::DIM)
-            .map(|a| self.layout.cell_size[a])
-            .fold(f64::INFINITY, f64::min);
-        // (a bound a little under the widest that the cells allow, then checked)
-        let bound = MOST_CELLS_APART as f64 * narrowest / (2.0 * (1.0 + 2.0 * WIDTH_MARGIN));
-        let apart = self.layout.cells_apart::<V>(bound);
-        if !(apart <= MOST_CELLS_APART && self.periodic.is_none()) {
-            return None;
-        }
-        let (small, large) = radii.iter().fold((0.0f64, 0usize), |(small, large), &r| {
-            if r <= bound {
-                (small.max(r), large)
-            } else {
-                (small, large + 1)
-            }
-        });
-        (large > 0 && large * FEWEST_SMALL_PER_LARGE <= radii.len()).then_some(small)
-    }
-
-    /// The search when the cells hold the small particles' pairs to a few cells apart (see
-    /// [`Grid::small_radius`]) but not the large ones': the pairs of two small particles
-    /// (radius at most `small`) from one side, cell by cell, then every pair with a large one
-    /// particle by particle from the large one (from the lower of two large ones), merged;
-    /// `[small, largest]` are the largest radii of the small particles and of all.
-    /// The lecture's second demo is such a scene: 100 discs of radius 3 among 4900 of radius
-    /// 1 in its 100x100 grid. Keeps only the pairs `keep` holds for, if any.
-    pub(super) fn search_by_sizes(
-        &mut self,
-        positions: &[V],
-        radii: &[f64],
-        [small, largest]: [f64; 2],
-        keep: Option<&PairFilter<'_>>,
-        pairs: &mut Vec<Pair>,
-    ) {
-        let is_small = |i: usize| radii[i] <= small;
-        let apart = self.layout.cells_apart::<V>(small);
-        self.walk_cells(positions, apart, keep, &[], pairs, |i, j| {
-            is_small(i)
-                & is_small(j)
-                & is_overlapping(positions[i], positions[j], radii[i], radii[j])
-        });
-        let layout = self.layout;
-        let (cell_start, ids) = (&self.cell_start, &self.ids);
-        let extra = &mut self.raised_extra;
-        collect_pairs(positions.len(), &mut self.buffers, extra, |i, out| {
-            if is_small(i) {
-                return;
-            }
-            let (pi, ri, first) = (positions[i], radii[i], out.len());
-            let test = |j: usize| {
-                (is_small(j) | (j > i)) & (j != i) & is_overlapping(pi, positions[j], ri, radii[j])
-            };
-            let hit = |j: usize| out.push((i.min(j) as u32, i.max(j) as u32));
-            for_each_near(&layout, cell_start, ids, pi, ri + largest, test, hit);
-            if let Some(keep) = keep {
-                keep_tail(out, first, keep);
-            }
-        });
-        extra.sort_unstable();
-        merge_kept_into(pairs, extra, |_| true);
     }
 
     /// [`BroadPhase::find_pairs`](crate::broadphase::BroadPhase::find_pairs) by cells, each
@@ -314,13 +243,9 @@ struct Forward<'a> {
     cell_start: &'a [u32],
 }
 
-/// At least this many small particles for each large one for a search by sizes (see
-/// [`Grid::small_radius`]): the large are searched particle by particle.
-const FEWEST_SMALL_PER_LARGE: usize = 8;
-
 /// The most cells apart two partners may lie for the search from one side (see
 /// [`Grid::searches_from_one_side`]): further, the search goes particle by particle.
-const MOST_CELLS_APART: usize = 3;
+pub(super) const MOST_CELLS_APART: usize = 3;
 
 /// The most runs [`Forward::runs`] gives: one cell apart, the next cell, then up to two runs
 /// (a row's three cells split by its seam) in each of the next row and the next layer's three
