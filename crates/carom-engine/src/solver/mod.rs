@@ -64,6 +64,7 @@ mod rows;
 mod rules;
 mod settings;
 mod shock;
+mod strikes;
 mod velocity;
 
 pub use settings::{SolverSettings, VelocitySolve, RESIDUAL_FRACTION, SLOP_FRACTION};
