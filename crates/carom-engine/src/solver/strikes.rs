@@ -252,11 +252,15 @@ mod tests {
     use glam::{DVec2, DVec3};
 
     /// Brute force's count of strikes, for the grid's to be held to.
-    fn brute<V: Vector>(escapes: &[Moved<V>], particles: &[Moved<V>]) -> u64 {
+    fn brute<V: Vector>(
+        escapes: &[Moved<V>],
+        particles: &[Moved<V>],
+        periodic: Option<&Periodic>,
+    ) -> u64 {
         let mut n = 0;
         for e in escapes {
             for p in particles {
-                n += e.strikes(p, None) as u64;
+                n += e.strikes(p, periodic) as u64;
             }
         }
         n
@@ -284,7 +288,7 @@ mod tests {
     fn the_grid_counts_as_brute_force<V: Vector>() {
         for seed in 1..6 {
             let (list, particles) = scatter::<V>(seed);
-            let expected = brute(&list, &particles);
+            let expected = brute(&list, &particles, None);
             let mut escapes = Escapes {
                 list,
                 ..Escapes::default()
@@ -338,12 +342,7 @@ mod tests {
             for p in particles.iter_mut().chain(list.iter_mut()) {
                 (p.start, p.end) = (periodic.wrap(p.start), periodic.wrap(p.end));
             }
-            let mut expected = 0;
-            for e in &list {
-                for p in &particles {
-                    expected += e.strikes(p, Some(&periodic)) as u64;
-                }
-            }
+            let expected = brute(&list, &particles, Some(&periodic));
             assert!(expected > 0, "seed {seed}: the scatter must strike");
             let mut escapes = Escapes {
                 list,

@@ -31,10 +31,9 @@ pub struct WorldConfig<V> {
     /// lecture's step finds such pairs after the move).
     pub retakes: u32,
     /// Whether the lecture's step (no gravity, `k = 1` with elastic planes, or a resting speed
-    /// of 0) covers pushes
-    /// as a step where contacts can rest always does: each particle's contact candidates then
-    /// cover what its partners can push it to within the step, and the step is taken again
-    /// when a push still outruns them (see [`crate::solver`]). Off by default: the lecture's
+    /// of 0) covers pushes as a step where contacts can rest always does: each particle's
+    /// contact candidates then cover what its partners can push it to within the step, and the
+    /// step is taken again when a push still outruns them (see [`crate::solver`]). Off by default: the lecture's
     /// detection finds a pair a push drove together overlapping on the next step, and a dense
     /// gas under gravity ends steps with such pairs deep in each other.
     pub cover_pushes: bool,
