@@ -14,6 +14,7 @@ use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
 
+mod bare;
 mod cases;
 use cases::cases;
 
@@ -104,6 +105,9 @@ struct Measured {
     phases_ms: Vec<(String, f64)>,
     /// The streaming floor for this many particles, ns per particle (see `crate::floor`).
     floor_ns_per_particle: f64,
+    /// The bare step over the case's particles at its end, ns per particle-step (see
+    /// [`bare`]).
+    bare_ns_per_particle_step: f64,
 }
 
 #[derive(Serialize)]
@@ -317,11 +321,14 @@ fn print_phases(r: &Measured) {
             )
         })
         .collect();
+    let times = |reference: f64| r.ns_per_particle_step / reference.max(f64::MIN_POSITIVE);
     println!(
-        "{:<44} floor {:.2} ns/particle: {:.0}x; {}",
+        "{:<44} floor {:.2} ns/particle: {:.0}x; bare step {:.1} ns: {:.1}x; {}",
         "",
         r.floor_ns_per_particle,
-        r.ns_per_particle_step / r.floor_ns_per_particle.max(f64::MIN_POSITIVE),
+        times(r.floor_ns_per_particle),
+        r.bare_ns_per_particle_step,
+        times(r.bare_ns_per_particle_step),
         phases.join(", ")
     );
     println!(
@@ -393,6 +400,7 @@ fn measure<V: Vector>(
         .collect();
     // (after the case, on the same pool: the floor's buffers must not count in its peak)
     let floor_ns_per_particle = rayon::scope(|_| crate::floor::streaming_floor::<V>(n));
+    let bare_ns_per_particle_step = bare::bare_step_ns(&world);
     // (over every pair, not only the last step's contacts; after the peak, which its search
     // must not raise)
     let end_max_overlap = world.deepest_overlap();
@@ -417,5 +425,6 @@ fn measure<V: Vector>(
         setup_seconds,
         phases_ms,
         floor_ns_per_particle,
+        bare_ns_per_particle_step,
     })
 }

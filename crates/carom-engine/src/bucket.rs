@@ -34,9 +34,12 @@ pub(crate) fn counting_sort(
     starts[0] = 0;
 }
 
-/// [`counting_sort`] of the items `0..keys.len()` on the thread pool, into the same `starts`
-/// and `order` (see [`group_by_key`]). `totals` is scratch.
-pub(crate) fn counting_sort_parallel(
+/// Groups the items `0..keys.len()` by their key on the thread pool, in `parts` runs: afterwards
+/// `order[starts[c] as usize..starts[c + 1] as usize]` lists the items whose key is `c`, in
+/// increasing order (a stable sort). `keys[i]` is item `i`'s key, below `buckets`; `totals` is
+/// scratch. O(items + buckets * parts); reuses the buffers' memory. The grid bins with it, and
+/// so does `carom bench`'s bare step.
+pub fn counting_sort_parallel(
     keys: &[u32],
     buckets: usize,
     parts: usize,

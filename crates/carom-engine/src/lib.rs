@@ -42,7 +42,7 @@
 
 pub mod broadphase;
 pub mod brute;
-mod bucket;
+pub mod bucket;
 pub mod cluster;
 pub mod diagnostics;
 pub mod domain;
