@@ -205,18 +205,25 @@ pub fn bench(args: &BenchArgs) -> Result<(), Failure> {
 }
 
 fn plot(path: &std::path::Path, results: &[Measured]) -> Result<(), Failure> {
+    // (carom's step, then the bare step over the same particles: see `bare`)
+    let measures: [(&str, fn(&Measured) -> f64); 2] = [
+        ("", |m| m.ns_per_particle_step),
+        (", bare step", |m| m.bare_ns_per_particle_step),
+    ];
     let mut series = Vec::new();
-    for group in ["sweep 2D", "sweep 3D"] {
-        let points: Vec<(f64, f64)> = results
-            .iter()
-            .filter(|m| m.group == group)
-            .map(|m| (m.particles as f64, m.ns_per_particle_step))
-            .collect();
-        if !points.is_empty() {
-            series.push(carom_plot::Series {
-                label: group.replace("sweep ", ""),
-                points,
-            });
+    for (suffix, measure) in measures {
+        for group in ["sweep 2D", "sweep 3D"] {
+            let points: Vec<(f64, f64)> = results
+                .iter()
+                .filter(|m| m.group == group)
+                .map(|m| (m.particles as f64, measure(m)))
+                .collect();
+            if !points.is_empty() {
+                series.push(carom_plot::Series {
+                    label: format!("{}{suffix}", group.replace("sweep ", "")),
+                    points,
+                });
+            }
         }
     }
     if series.is_empty() {
@@ -226,7 +233,7 @@ fn plot(path: &std::path::Path, results: &[Measured]) -> Result<(), Failure> {
     carom_plot::save_scaling_plot(
         path,
         &series,
-        &format!("carom: cost per particle-step ({threads} threads)"),
+        &format!("carom and the bare step: cost per particle-step ({threads} threads)"),
         "particles N",
         "ns per particle-step",
     )
