@@ -206,7 +206,8 @@ pub fn bench(args: &BenchArgs) -> Result<(), Failure> {
 
 fn plot(path: &std::path::Path, results: &[Measured]) -> Result<(), Failure> {
     // (carom's step, then the bare step over the same particles: see `bare`)
-    let measures: [(&str, fn(&Measured) -> f64); 2] = [
+    type Measure = fn(&Measured) -> f64;
+    let measures: [(&str, Measure); 2] = [
         ("", |m| m.ns_per_particle_step),
         (", bare step", |m| m.bare_ns_per_particle_step),
     ];
