@@ -5,11 +5,12 @@
 //! pairs that overlap and approach in one search of the cells around it, and gives each pair the
 //! lecture's response and a push apart, once, in one serial pass. It has none of carom's own
 //! work: no reaches swept to the step's motion, no second search, no solver sweeps, no sleep,
-//! no determinism across thread counts to keep. Its state is kept in cell order, as the CUDA
-//! "particles" sample keeps it, so its search reads memory in sequence and through no index.
+//! no sort of its pairs into one order (they come in the walk's, which no thread count
+//! changes). Its state is kept in cell order, as the CUDA "particles" sample keeps it, so its
+//! search reads memory in sequence and through no index.
 //!
-//! It is not a correct engine (a pile under it sinks, and a pair two cells apart after a fast
-//! step is missed), only the cheapest step that looks like one. Between the streaming floor
+//! It is not a correct engine (a pile under it sinks, and two particles that cross within one
+//! step are never seen to meet), only the cheapest step that looks like one. Between the streaming floor
 //! (one pass over memory, see `crate::floor`) and the case's own time, it says how much of a
 //! step any engine that searches cells each step must pay on this machine, and how much is
 //! carom's.
