@@ -1,7 +1,7 @@
 //! The decomposition over ranks gives the very bits of one world: ranks run as threads here
 //! (the `carom` binary's MPI runs are tested in carom-cli).
 
-mod support;
+use crate::support;
 use support::Lcg;
 
 use carom_engine::cluster::{Subdomain, ThreadTransport, TrafficKind};

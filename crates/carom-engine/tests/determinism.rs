@@ -1,7 +1,7 @@
 //! Determinism: the trajectory is a function of the scene alone, not of the broad phase, the
 //! grid resolution, the number of threads, or whether the run was restarted from a snapshot.
 
-mod support;
+use crate::support;
 use support::Lcg;
 
 use carom_engine::glam::{DVec2, DVec3};

@@ -3,7 +3,7 @@
 //! on escapes), so no pair is left deep in each other for the next step to find.
 
 #[allow(dead_code)] // (the shared test helpers this file does not call)
-mod support;
+use crate::support;
 
 use carom_engine::glam::DVec2;
 use carom_engine::{Aabb, Vector, World};

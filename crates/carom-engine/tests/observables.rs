@@ -2,7 +2,7 @@
 //! virial, the temperature and the overlap, on cases worked out by hand, and the pressure of
 //! a dilute elastic gas against its equation of state.
 
-mod support;
+use crate::support;
 use support::Lcg;
 
 use carom_engine::glam::DVec2;

@@ -3,7 +3,7 @@
 //! and the trajectory stays a function of the scene alone (broad phase, grid resolution,
 //! threads, restarts).
 
-mod support;
+use crate::support;
 use support::Lcg;
 
 use carom_engine::glam::{DVec2, DVec3};

@@ -4,7 +4,7 @@
 //! `carom bench`.
 
 #[allow(dead_code)]
-mod support;
+use crate::support;
 
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::{Aabb, Vector, World, WorldBuilder};

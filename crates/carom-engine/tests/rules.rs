@@ -4,7 +4,7 @@
 //! Every scene is deterministic (a small LCG places and launches the particles), so a failure
 //! reproduces exactly.
 
-mod support;
+use crate::support;
 use support::{all_finite, max_overlap, Lcg};
 
 use carom_engine::glam::{DVec2, DVec3};

@@ -4,7 +4,7 @@
 //! Assertions on state only.
 
 #[allow(dead_code)]
-mod support;
+use crate::support;
 
 use carom_engine::glam::DVec2;
 use carom_engine::{Aabb, BroadPhaseKind, World, WorldBuilder};
