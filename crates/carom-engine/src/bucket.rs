@@ -36,9 +36,12 @@ pub(crate) fn counting_sort(
 
 /// Groups the items `0..keys.len()` by their key on the thread pool, in `parts` runs: afterwards
 /// `order[starts[c] as usize..starts[c + 1] as usize]` lists the items whose key is `c`, in
-/// increasing order (a stable sort). `keys[i]` is item `i`'s key, below `buckets`; `totals` is
-/// scratch. O(items + buckets * parts); reuses the buffers' memory. The grid bins with it, and
-/// so does `carom bench`'s bare step.
+/// increasing order (a stable sort). `keys[i]` is item `i`'s key; `totals` is scratch. Each run
+/// reads every key twice, so the work is O(items * parts + buckets); it reuses the buffers'
+/// memory. The grid bins with it, and so does `carom bench`'s bare step.
+///
+/// Every key must be below `buckets`, and there must be fewer than `u32::MAX` items (both
+/// checked in debug builds only: the grid's bin is a hot pass).
 pub fn counting_sort_parallel(
     keys: &[u32],
     buckets: usize,
@@ -47,6 +50,11 @@ pub fn counting_sort_parallel(
     order: &mut Vec<u32>,
     totals: &mut Vec<u32>,
 ) {
+    debug_assert!(keys.len() < u32::MAX as usize, "{} items", keys.len());
+    debug_assert!(
+        keys.iter().all(|&k| (k as usize) < buckets),
+        "a key beyond {buckets}"
+    );
     if buckets <= buckets.div_ceil(parts.max(1)).max(1) {
         return counting_sort(keys, buckets, 0..keys.len() as u32, starts, order);
     }

@@ -10,6 +10,7 @@
 //! | detection `distance < r1 + r2`, normal/tangent split, mass-weighted response with restitution, the trap rule `p_rel . v_rel < 0` | [`response`] |
 //! | particle-plane rule `(x - p) . n < r && n . v < 0`, `V' = V_T - k V_N` | [`plane`] |
 //! | the hash grid (normalise, scale, clamp, floor; buckets; neighbour cells) | [`grid`] |
+//! | the buckets themselves: cell lists by a counting sort | [`bucket`] |
 //! | brute force, O(n^2) | [`brute`] |
 //! | the grid without a box: an unbounded spatial hash (Teschner et al. 2003) | [`hash`] |
 //! | many simultaneous contacts: impacts, resting impulses, pushing trapped particles apart | [`solver`] |

@@ -2,7 +2,6 @@
 //! drives a particle beyond its reach into one it had no contact with (see the solver's notes
 //! on escapes), so no pair is left deep in each other for the next step to find.
 
-#[allow(dead_code)] // (the shared test helpers this file does not call)
 use crate::support;
 
 use carom_engine::glam::DVec2;

@@ -3,7 +3,6 @@
 //! still bounces as its `k` says. Assertions on state only; the full sizes run in
 //! `carom bench`.
 
-#[allow(dead_code)]
 use crate::support;
 
 use carom_engine::glam::{DVec2, DVec3};

@@ -3,7 +3,6 @@
 //! parameter changes, and a ball dropped onto the sleeping pile bounces as its `k` says.
 //! Assertions on state only.
 
-#[allow(dead_code)]
 use crate::support;
 
 use carom_engine::glam::DVec2;
