@@ -17,6 +17,7 @@
 //! how much of the rest is carom's.
 
 use carom_engine::bucket::counting_sort_parallel;
+use carom_engine::grid::GridLayout;
 use carom_engine::response::{collide, contact_normal, is_approaching, is_overlapping};
 use carom_engine::{Aabb, Particles, Plane, Vector, World};
 use rayon::prelude::*;
@@ -58,7 +59,7 @@ struct Bare<V: Vector> {
     gravity: V,
     dt: f64,
     restitution: f64,
-    cells: Cells,
+    cells: GridLayout,
     /// Each particle's cell.
     key: Vec<u32>,
     /// Where the particle now `i`-th in cell order was before the bin.
@@ -73,63 +74,27 @@ struct Bare<V: Vector> {
     pairs: Vec<Vec<(u32, u32)>>,
 }
 
-/// A fixed grid over the world's domain (or, without one, the particles' first bounding box),
+/// The bare step's fixed grid: the engine's own layout (the lecture's hash, see
+/// [`GridLayout`]) over the world's domain or, without one, the particles' first bounding box,
 /// cells at least one largest diameter wide (so every pair lies in neighbouring cells), at most
 /// four per particle (and at least 64 in all, fewer than `u32::MAX`). Particles beyond it are
 /// clamped into its border cells, and still found.
-#[derive(Clone, Copy, Debug)]
-struct Cells {
-    origin: [f64; 3],
-    inverse_width: f64,
-    count: [usize; 3],
+fn fit_cells<V: Vector>(position: &[V], domain: Option<Aabb<V>>, max_radius: f64) -> GridLayout {
+    let bounds = domain.unwrap_or_else(|| {
+        let far = |sign: f64| V::from_slice(&[sign * f64::INFINITY; 3][..V::DIM]);
+        let (min, max) = (position.iter()).fold((far(1.0), far(-1.0)), |(lo, hi), &x| {
+            (lo.min_components(x), hi.max_components(x))
+        });
+        Aabb { min, max }
+    });
+    let most = (4 * position.len()).clamp(64, u32::MAX as usize - 1) as f64;
+    GridLayout::fit(&bounds, max_radius, None, most)
 }
 
-impl Cells {
-    fn fit<V: Vector>(position: &[V], domain: Option<Aabb<V>>, max_radius: f64) -> Self {
-        let (mut lo, mut hi) = ([0.0f64; 3], [0.0f64; 3]);
-        for a in 0..V::DIM {
-            (lo[a], hi[a]) = match domain {
-                Some(d) => (d.min.get(a), d.max.get(a)),
-                None => {
-                    let along = || position.iter().map(|x| x.get(a));
-                    let lowest = along().fold(f64::INFINITY, f64::min);
-                    (lowest, along().fold(f64::NEG_INFINITY, f64::max))
-                }
-            };
-        }
-        let limit = (4 * position.len()).clamp(64, u32::MAX as usize - 1) as f64;
-        let mut width = (2.0 * max_radius).max(f64::MIN_POSITIVE);
-        let per_axis = |width: f64| {
-            let mut count = [1usize; 3];
-            for a in 0..V::DIM {
-                count[a] = (((hi[a] - lo[a]) / width).ceil() as usize).max(1);
-            }
-            count
-        };
-        while per_axis(width).iter().map(|&c| c as f64).product::<f64>() > limit {
-            width *= 1.25;
-        }
-        Cells {
-            origin: lo,
-            inverse_width: 1.0 / width,
-            count: per_axis(width),
-        }
-    }
-
-    /// The lecture's hash: normalise, scale, clamp, floor; as a linear index.
-    #[inline]
-    fn key<V: Vector>(&self, x: V) -> u32 {
-        let mut c = [0usize; 3];
-        for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
-            let t = (x.get(a) - self.origin[a]) * self.inverse_width;
-            *slot = (t as i64).clamp(0, self.count[a] as i64 - 1) as usize;
-        }
-        ((c[2] * self.count[1] + c[1]) * self.count[0] + c[0]) as u32
-    }
-
-    fn total(&self) -> usize {
-        self.count.iter().product()
-    }
+/// The cell of `x` in `cells`, as a linear index.
+#[inline]
+fn cell_key<V: Vector>(cells: &GridLayout, x: V) -> u32 {
+    cells.linear(cells.cell_coords(x)) as u32
 }
 
 impl<V: Vector> Bare<V> {
@@ -139,7 +104,7 @@ impl<V: Vector> Bare<V> {
         Self::with(world.particles(), config.domain, world.planes(), setting)
     }
 
-    /// A copy of `particles` and `planes`, binned over `domain` (see [`Cells::fit`]), stepped
+    /// A copy of `particles` and `planes`, binned over `domain` (see [`fit_cells`]), stepped
     /// with `(gravity, dt, restitution)`.
     fn with(
         particles: &Particles<V>,
@@ -157,7 +122,7 @@ impl<V: Vector> Bare<V> {
             gravity,
             dt,
             restitution: k,
-            cells: Cells::fit(particles.positions(), domain, particles.max_radius()),
+            cells: fit_cells(particles.positions(), domain, particles.max_radius()),
             key: vec![0; n],
             from: vec![0; n],
             start: Vec::new(),
@@ -196,7 +161,7 @@ impl<V: Vector> Bare<V> {
                             plane.push_out_in_place(&mut x[i], r[i]);
                         }
                     }
-                    key[i] = cells.key(x[i]);
+                    key[i] = cell_key(&cells, x[i]);
                 }
             });
     }
@@ -217,7 +182,7 @@ impl<V: Vector> Bare<V> {
     /// the rest of its own cell and the next cell of its row, then the three cells around it
     /// in the next row (and in 3D the next layer's three rows of three).
     fn search(&mut self) {
-        let [width, height, depth] = self.cells.count;
+        let [width, height, depth] = self.cells.cells;
         let rows = height * depth;
         let tasks = rows.div_ceil(ROWS_PER_TASK);
         self.pairs.resize_with(tasks, Vec::new);
