@@ -9,6 +9,7 @@ use crate::{Ctx, SceneError};
 use carom_engine::{Aabb, Particles, Periodic, Vector};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
+use rayon::prelude::*;
 
 /// What one particle costs while a scene is built and run (engine arrays, grid, contacts and
 /// the placement hash), used to refuse fills that cannot fit in memory before trying.
@@ -199,13 +200,8 @@ impl<V: Vector> Placer<V> {
 
     /// For each of `tries`, whether a particle of `radius` there would overlap a placed one.
     pub fn refusals(&self, tries: impl Iterator<Item = V>, radius: f64, refused: &mut [bool]) {
-        match &self.seams {
-            None => self.grid.refusals(tries, radius, refused),
-            Some(_) => {
-                for (x, refused) in tries.zip(refused) {
-                    *refused = self.overlaps_settled(x, radius);
-                }
-            }
+        for (x, refused) in tries.zip(refused) {
+            *refused = self.overlaps_settled(x, radius);
         }
     }
 }
@@ -226,7 +222,33 @@ impl<V: Vector> Fill<V> {
     fn velocity(&self, rng: &mut Pcg64) -> V {
         self.base_velocity + random_direction::<V>(rng) * (self.speed * rng.random::<f64>())
     }
+
+    /// The next `n` velocities of `stream` ([`Fill::velocity`] `n` times, [`VELOCITY_DRAWS`]
+    /// numbers each) into `out`, drawn on the thread pool in chunks, each from the stream
+    /// advanced to its first: the same velocities in the same order for any thread count.
+    fn velocities(&self, stream: &mut Pcg64, n: usize, out: &mut Vec<V>) {
+        let draws = VELOCITY_DRAWS[V::DIM - 2];
+        out.clear();
+        out.resize(n, V::ZERO);
+        out.par_chunks_mut(DRAWS_PER_TASK)
+            .enumerate()
+            .for_each(|(c, chunk)| {
+                let mut numbers = stream.clone();
+                numbers.advance((c * DRAWS_PER_TASK * draws) as u128);
+                for v in chunk {
+                    *v = self.velocity(&mut numbers);
+                }
+            });
+        stream.advance((n * draws) as u128);
+    }
 }
+
+/// Numbers of the random stream one [`Fill::velocity`] takes in 2D and in 3D: a direction
+/// (an angle; or a height and an angle) and a speed.
+const VELOCITY_DRAWS: [usize; 2] = [2, 3];
+
+/// Velocities (or tries) one task of [`Fill::velocities`] (or [`draw_tries`]) draws.
+const DRAWS_PER_TASK: usize = 8192;
 
 /// Places the particles of `[[fill]]` `i` (over `region`) into `out`.
 fn fill_one<V: Vector>(
@@ -372,14 +394,8 @@ fn place_random<V: Vector>(
         let size = (batch(so_far).max(1) as u64).min(budget - attempts);
         last = Some((size, placed));
         attempts += size;
-        for _ in 0..size {
-            let mut c = [0.0; 3];
-            for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
-                *slot = lo.get(a) + span.get(a) * rng.random::<f64>();
-            }
-            let x = V::from_slice(&c);
-            tries.push(seams.map_or(x, |(p, _)| p.wrap(x)));
-        }
+        let wrap = |x: V| seams.map_or(x, |(p, _)| p.wrap(x));
+        draw_tries(rng, (lo, span), wrap, size as usize, tries);
     };
     if place_in_batches(ctx, i, fill, placer, out, &mut velocities, draw)? {
         return Ok(());
@@ -392,6 +408,36 @@ fn place_random<V: Vector>(
             out.len() - start
         ),
     ))
+}
+
+/// The next `size` random tries of `stream` (one number a coordinate) in the box `(lo, span)`,
+/// each passed through `wrap`, appended to `tries`: drawn on the thread pool in chunks, each
+/// from the stream advanced to its first, so the same tries for any thread count.
+fn draw_tries<V: Vector>(
+    stream: &mut Pcg64,
+    (lo, span): (V, V),
+    wrap: impl Fn(V) -> V + Sync,
+    size: usize,
+    tries: &mut Vec<V>,
+) {
+    let first = tries.len();
+    tries.resize(first + size, V::ZERO);
+    let numbers: &Pcg64 = stream;
+    tries[first..]
+        .par_chunks_mut(DRAWS_PER_TASK)
+        .enumerate()
+        .for_each(|(chunk_index, chunk)| {
+            let mut numbers = numbers.clone();
+            numbers.advance((chunk_index * DRAWS_PER_TASK * V::DIM) as u128);
+            for x in chunk {
+                let mut c = [0.0; 3];
+                for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
+                    *slot = lo.get(a) + span.get(a) * numbers.random::<f64>();
+                }
+                *x = wrap(V::from_slice(&c));
+            }
+        });
+    stream.advance((size * V::DIM) as u128);
 }
 
 /// Places the tries that `draw(tries, particles placed so far)` pushes, batch after batch,
@@ -411,6 +457,7 @@ fn place_in_batches<V: Vector>(
     let (count, radius) = (fill.count, fill.radius);
     let start = out.len();
     let mut screen = Screen::default();
+    let mut speeds = Vec::new();
     loop {
         screen.tries.clear();
         draw(&mut screen.tries, out.len());
@@ -418,18 +465,12 @@ fn place_in_batches<V: Vector>(
             return Ok(false);
         }
         screen.decide(placer, radius);
-        let mut end = screen.tries.len();
-        for (k, (&x, _)) in (screen.tries.iter().zip(&screen.placed))
-            .enumerate()
-            .filter(|(_, (_, &placed))| placed)
-        {
-            let v = fill.velocity(velocities);
+        let left = count - (out.len() - start) as u64;
+        let (taken, end) = screen.placed_up_to(left);
+        fill.velocities(velocities, taken, &mut speeds);
+        for (&x, &v) in screen.placed_tries(end).zip(&speeds) {
             out.push(x, v, radius, fill.mass)
                 .map_err(|e| ctx.err(format!("fill[{i}]"), e.to_string()))?;
-            if (out.len() - start) as u64 == count {
-                end = k + 1;
-                break;
-            }
         }
         screen.settle(&mut placer.grid, end, radius);
         (ctx.progress)(out.len() as u64, placer.total);

@@ -36,11 +36,6 @@ const EMPTY: u32 = u32::MAX;
 /// The cells per axis a particle of some radius at some point must look at: first and last.
 type CellRange = ([usize; 3], [usize; 3]);
 
-/// Tries checked in step by [`PlacementGrid::refusals`]: the cell starts of all of them are
-/// fetched, then the first placed particle of each of their rows of cells, then they are
-/// tested, so that the cache misses of several tries are in flight together.
-const TRIES_IN_STEP: usize = 8;
-
 /// The placed particles of a fill, on a grid of cells.
 pub(crate) struct PlacementGrid<V> {
     layout: GridLayout,
@@ -203,46 +198,6 @@ impl<V: Vector> PlacementGrid<V> {
         }
     }
 
-    /// [`PlacementGrid::overlaps_settled`] of each of `tries`, [`TRIES_IN_STEP`] at a time in
-    /// stages: the same answers, with the misses of several tries overlapping.
-    pub(crate) fn refusals(
-        &self,
-        mut tries: impl Iterator<Item = V>,
-        radius: f64,
-        refused: &mut [bool],
-    ) {
-        for refused in refused.chunks_mut(TRIES_IN_STEP) {
-            let mut step = [V::ZERO; TRIES_IN_STEP];
-            for (x, try_) in step.iter_mut().zip(&mut tries).take(refused.len()) {
-                *x = try_;
-            }
-            let step = &step[..refused.len()];
-            let mut ranges: [CellRange; TRIES_IN_STEP] = [([0; 3], [0; 3]); TRIES_IN_STEP];
-            for (&x, range) in step.iter().zip(&mut ranges) {
-                *range = self.cell_range(x, radius);
-                let (lo, hi) = *range;
-                for z in lo[2]..=hi[2] {
-                    for y in lo[1]..=hi[1] {
-                        prefetch(&self.starts[self.layout.linear([lo[0], y, z])]);
-                    }
-                }
-            }
-            for &range in &ranges[..step.len()] {
-                let (lo, hi) = range;
-                for z in lo[2]..=hi[2] {
-                    for y in lo[1]..=hi[1] {
-                        if let Some(first) = self.settled_row(range, y, z).first() {
-                            prefetch(first);
-                        }
-                    }
-                }
-            }
-            for (&x, refused) in step.iter().zip(refused.iter_mut()) {
-                *refused = self.overlaps_settled(x, radius);
-            }
-        }
-    }
-
     /// `test` of `x` and of its images across the seams of `periodic` (`domain`'s periodic
     /// axes) that lie within reach of another particle, until one says true: `x` is wrapped,
     /// so an image one period away can only touch particles near the opposite face.
@@ -280,20 +235,6 @@ impl<V: Vector> PlacementGrid<V> {
         }
         false
     }
-}
-
-/// Hints the processor to bring the cache line of `value` in; no effect on any result.
-#[inline]
-fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        // SAFETY: a prefetch is a hint: it never faults and reads nothing the program sees,
-        // and the address is a live reference besides.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast::<i8>()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
 }
 
 #[cfg(test)]

@@ -93,7 +93,7 @@ impl<V: Vector> Screen<V> {
                 .enumerate()
                 .map(|(k, &x)| (u64::from(grid.cell_of(x)) << 32) | k as u64),
         );
-        self.by_cell.par_sort_unstable();
+        radsort::sort_by_key(&mut self.by_cell, |&key| (key >> 32) as u32);
         let tries = &self.tries;
         self.sorted_tries.clear();
         self.sorted_tries
@@ -137,6 +137,26 @@ impl<V: Vector> Screen<V> {
             })
             .collect();
         self.conflicts.sort_unstable();
+    }
+
+    /// How many tries are placed, at most `most`, and the end of the tries they come from
+    /// (the index after the last one counted, or all of them).
+    pub fn placed_up_to(&self, most: u64) -> (usize, usize) {
+        let mut taken = 0;
+        for (k, _) in self.placed.iter().enumerate().filter(|(_, &placed)| placed) {
+            taken += 1;
+            if taken as u64 == most {
+                return (taken, k + 1);
+            }
+        }
+        (taken, self.tries.len())
+    }
+
+    /// The positions of the placed tries before try `end`, in try order.
+    pub fn placed_tries(&self, end: usize) -> impl Iterator<Item = &V> {
+        (self.tries[..end].iter().zip(&self.placed))
+            .filter(|(_, &placed)| placed)
+            .map(|(x, _)| x)
     }
 
     /// Adds the placed tries before try `end` to `grid`.

@@ -171,3 +171,44 @@ fn batches_place_the_same_particles_as_one_try_at_a_time() {
     same::<DVec3>(150, 8.0, false);
     same::<DVec3>(150, 8.0, true);
 }
+
+/// Tries and velocities drawn in chunks on the thread pool are the numbers one draw after
+/// another gives, in the same order, and leave the stream where it would be: over several
+/// chunks, in 2D and 3D.
+#[test]
+fn chunked_draws_are_the_sequential_draws() {
+    fn check<V: Vector>() {
+        let n = 2 * DRAWS_PER_TASK + 3;
+        let (lo, span) = (V::from_slice(&[-3.0; 3]), V::from_slice(&[7.0; 3]));
+        let mut chunked = Pcg64::seed_from_u64(5);
+        let mut one_by_one = chunked.clone();
+        let mut tries = vec![V::ZERO];
+        draw_tries(&mut chunked, (lo, span), |x| x * 2.0, n, &mut tries);
+        let mut expected = vec![V::ZERO];
+        for _ in 0..n {
+            let mut c = [0.0; 3];
+            for slot in c.iter_mut().take(V::DIM) {
+                *slot = -3.0 + 7.0 * one_by_one.random::<f64>();
+            }
+            expected.push(V::from_slice(&c) * 2.0);
+        }
+        assert_eq!(tries, expected);
+        assert_eq!(chunked, one_by_one);
+
+        let fill = Fill {
+            count: n as u64,
+            radius: 1.0,
+            mass: 1.0,
+            speed: 2.0,
+            base_velocity: V::from_slice(&[0.5; 3]),
+            region: Aabb::new(lo, lo + span).unwrap(),
+        };
+        let mut velocities = Vec::new();
+        fill.velocities(&mut chunked, n, &mut velocities);
+        let expected: Vec<V> = (0..n).map(|_| fill.velocity(&mut one_by_one)).collect();
+        assert_eq!(velocities, expected);
+        assert_eq!(chunked, one_by_one);
+    }
+    check::<DVec2>();
+    check::<DVec3>();
+}
