@@ -5,7 +5,7 @@
 //! them nearly in the order they lie in memory, instead of one cache miss after another.
 //! [`PlacementGrid::merge`] adds a batch's particles (sorted by cell) in place. While a batch is
 //! decided, the grid also indexes the batch's own *survivors* (the tries that overlap nothing
-//! placed before the batch, in cell order) by their first in each cell, so that each can be
+//! placed before the batch, in cell order) by their first in each block of cells, so that each can be
 //! checked against the survivors around it (see [`crate::screen`]).
 //!
 //! The cells are the engine's grid layout ([`GridLayout`]), at least one largest diameter
@@ -33,6 +33,12 @@ impl<V: Vector> Disc<V> {
 
 const EMPTY: u32 = u32::MAX;
 
+/// Cells per entry of the survivors' index: a batch's survivors are found from the first in a
+/// block, not in a cell, so the index takes a thirty-second of the memory of one entry a cell
+/// (10 MB at 10^6 particles); the survivors before the cell sought are passed over (a block
+/// holds less than one survivor on average).
+const CELLS_PER_BLOCK: usize = 32;
+
 /// The cells per axis a particle of some radius at some point must look at: first and last.
 type CellRange = ([usize; 3], [usize; 3]);
 
@@ -43,8 +49,9 @@ pub(crate) struct PlacementGrid<V> {
     /// Cell `c`'s placed particles are `settled[starts[c]..starts[c + 1]]`.
     starts: Vec<u32>,
     settled: Vec<Disc<V>>,
-    /// Per cell, the first survivor of the batch being decided in it (an index into the
-    /// survivors, which lie in cell order), or [`EMPTY`]; all [`EMPTY`] between batches.
+    /// Per block of [`CELLS_PER_BLOCK`] cells, the first survivor of the batch being decided
+    /// in it (an index into the survivors, which lie in cell order), or [`EMPTY`]; all
+    /// [`EMPTY`] between batches.
     first_survivor: Vec<u32>,
 }
 
@@ -60,7 +67,7 @@ impl<V: Vector> PlacementGrid<V> {
             max_radius,
             starts: vec![0; cells + 1],
             settled: Vec::with_capacity(capacity),
-            first_survivor: vec![EMPTY; cells],
+            first_survivor: vec![EMPTY; cells.div_ceil(CELLS_PER_BLOCK)],
         }
     }
 
@@ -87,7 +94,7 @@ impl<V: Vector> PlacementGrid<V> {
         };
         let (old, count) = (self.settled.len(), added.len());
         self.settled.resize(old + count, placeholder);
-        let cells = self.first_survivor.len();
+        let cells = self.starts.len() - 1;
         self.starts[cells] = (old + count) as u32;
         // `shift`: the added particles not yet placed, all in cells up to the current one;
         // cells above it, up to `upper`, hold old particles alone, which move by `shift`.
@@ -157,11 +164,12 @@ impl<V: Vector> PlacementGrid<V> {
     }
 
     /// Indexes a batch's survivors, whose cells are `cells` (sorted), by the first in each
-    /// cell, until [`PlacementGrid::forget_survivors`].
+    /// block of cells, until [`PlacementGrid::forget_survivors`].
     pub(crate) fn index_survivors(&mut self, cells: &[u32]) {
         for (k, &cell) in cells.iter().enumerate() {
-            if k == 0 || cells[k - 1] != cell {
-                self.first_survivor[cell as usize] = k as u32;
+            let block = cell as usize / CELLS_PER_BLOCK;
+            if k == 0 || cells[k - 1] as usize / CELLS_PER_BLOCK != block {
+                self.first_survivor[block] = k as u32;
             }
         }
     }
@@ -169,7 +177,7 @@ impl<V: Vector> PlacementGrid<V> {
     /// Undoes [`PlacementGrid::index_survivors`] of `cells`.
     pub(crate) fn forget_survivors(&mut self, cells: &[u32]) {
         for &cell in cells {
-            self.first_survivor[cell as usize] = EMPTY;
+            self.first_survivor[cell as usize / CELLS_PER_BLOCK] = EMPTY;
         }
     }
 
@@ -187,12 +195,20 @@ impl<V: Vector> PlacementGrid<V> {
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
                 let row = self.layout.linear([0, y, z]);
-                for cell in row + lo[0]..=row + hi[0] {
-                    let mut k = self.first_survivor[cell] as usize;
-                    while k < cells.len() && cells[k] as usize == cell {
-                        visit(k);
-                        k += 1;
-                    }
+                let (first, last) = (row + lo[0], row + hi[0]);
+                // (the first survivor of the first block of the row's cells that has one, then
+                // past those in cells before the first)
+                let blocks = first / CELLS_PER_BLOCK..=last / CELLS_PER_BLOCK;
+                let Some(k) = blocks.map(|b| self.first_survivor[b]).find(|&k| k != EMPTY) else {
+                    continue;
+                };
+                let mut k = k as usize;
+                while k < cells.len() && (cells[k] as usize) < first {
+                    k += 1;
+                }
+                while k < cells.len() && cells[k] as usize <= last {
+                    visit(k);
+                    k += 1;
                 }
             }
         }
@@ -261,7 +277,7 @@ mod tests {
             grid.add(added.iter().map(|&x| (x, 0.5)));
             all.extend(added);
             assert_eq!(grid.settled.len(), all.len());
-            for c in 0..grid.first_survivor.len() {
+            for c in 0..grid.starts.len() - 1 {
                 let mut here: Vec<DVec2> = grid.settled
                     [grid.starts[c] as usize..grid.starts[c + 1] as usize]
                     .iter()
