@@ -7,9 +7,9 @@ use crate::screen::Screen;
 use crate::walls::Walled;
 use crate::{Ctx, SceneError};
 use carom_engine::{Aabb, Particles, Periodic, Vector};
-use rand::{Rng, SeedableRng};
+use draws::{draw_tries, VELOCITY_STREAM_OFFSET};
+use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use rayon::prelude::*;
 
 /// What one particle costs while a scene is built and run (engine arrays, grid, contacts and
 /// the placement hash), used to refuse fills that cannot fit in memory before trying.
@@ -216,40 +216,6 @@ struct Fill<V> {
     region: Aabb<V>,
 }
 
-impl<V: Vector> Fill<V> {
-    /// A random velocity: the base velocity plus a random direction times a speed uniform in
-    /// [0, speed].
-    fn velocity(&self, rng: &mut Pcg64) -> V {
-        self.base_velocity + random_direction::<V>(rng) * (self.speed * rng.random::<f64>())
-    }
-
-    /// The next `n` velocities of `stream` ([`Fill::velocity`] `n` times, [`VELOCITY_DRAWS`]
-    /// numbers each) into `out`, drawn on the thread pool in chunks, each from the stream
-    /// advanced to its first: the same velocities in the same order for any thread count.
-    fn velocities(&self, stream: &mut Pcg64, n: usize, out: &mut Vec<V>) {
-        let draws = VELOCITY_DRAWS[V::DIM - 2];
-        out.clear();
-        out.resize(n, V::ZERO);
-        out.par_chunks_mut(DRAWS_PER_TASK)
-            .enumerate()
-            .for_each(|(c, chunk)| {
-                let mut numbers = stream.clone();
-                numbers.advance((c * DRAWS_PER_TASK * draws) as u128);
-                for v in chunk {
-                    *v = self.velocity(&mut numbers);
-                }
-            });
-        stream.advance((n * draws) as u128);
-    }
-}
-
-/// Numbers of the random stream one [`Fill::velocity`] takes in 2D and in 3D: a direction
-/// (an angle; or a height and an angle) and a speed.
-const VELOCITY_DRAWS: [usize; 2] = [2, 3];
-
-/// Velocities (or tries) one task of [`Fill::velocities`] (or [`draw_tries`]) draws.
-const DRAWS_PER_TASK: usize = 8192;
-
 /// Places the particles of `[[fill]]` `i` (over `region`) into `out`.
 fn fill_one<V: Vector>(
     ctx: &Ctx,
@@ -358,11 +324,6 @@ const MIN_TRIES_PER_BATCH: usize = 256;
 /// The most tries in a batch (each takes 9 D + 26 bytes of [`Screen`]).
 const MAX_TRIES_PER_BATCH: usize = 1 << 18;
 
-/// How far along the fill's random stream its velocities are drawn: the positions of the tries
-/// come from the start of the stream and the velocities from here, so a try's position does
-/// not depend on how many tries before it were placed. (No fill comes near 2^100 draws.)
-const VELOCITY_STREAM_OFFSET: u128 = 1 << 100;
-
 /// Random positions over the region (less a radius), each kept if it overlaps nothing placed
 /// before it: random sequential adsorption, try after try, decided in batches (see
 /// [`place_in_batches`]). `batch` says how many tries a batch draws ([`batch_size`]).
@@ -408,36 +369,6 @@ fn place_random<V: Vector>(
             out.len() - start
         ),
     ))
-}
-
-/// The next `size` random tries of `stream` (one number a coordinate) in the box `(lo, span)`,
-/// each passed through `wrap`, appended to `tries`: drawn on the thread pool in chunks, each
-/// from the stream advanced to its first, so the same tries for any thread count.
-fn draw_tries<V: Vector>(
-    stream: &mut Pcg64,
-    (lo, span): (V, V),
-    wrap: impl Fn(V) -> V + Sync,
-    size: usize,
-    tries: &mut Vec<V>,
-) {
-    let first = tries.len();
-    tries.resize(first + size, V::ZERO);
-    let numbers: &Pcg64 = stream;
-    tries[first..]
-        .par_chunks_mut(DRAWS_PER_TASK)
-        .enumerate()
-        .for_each(|(chunk_index, chunk)| {
-            let mut numbers = numbers.clone();
-            numbers.advance((chunk_index * DRAWS_PER_TASK * V::DIM) as u128);
-            for x in chunk {
-                let mut c = [0.0; 3];
-                for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
-                    *slot = lo.get(a) + span.get(a) * numbers.random::<f64>();
-                }
-                *x = wrap(V::from_slice(&c));
-            }
-        });
-    stream.advance((size * V::DIM) as u128);
 }
 
 /// Places the tries that `draw(tries, particles placed so far)` pushes, batch after batch,
@@ -572,19 +503,6 @@ const LATTICE_SITES_PER_BATCH: usize = 65536;
 
 const GIB: f64 = (1u64 << 30) as f64;
 
-/// A uniformly random unit vector.
-fn random_direction<V: Vector>(rng: &mut Pcg64) -> V {
-    use std::f64::consts::TAU;
-    if V::DIM == 2 {
-        let angle = TAU * rng.random::<f64>();
-        V::from_slice(&[angle.cos(), angle.sin()])
-    } else {
-        let z = 2.0 * rng.random::<f64>() - 1.0;
-        let angle = TAU * rng.random::<f64>();
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        V::from_slice(&[s * angle.cos(), s * angle.sin(), z])
-    }
-}
-
+mod draws;
 #[cfg(test)]
 mod tests;
