@@ -93,6 +93,8 @@ impl<V: Vector> Screen<V> {
                 .enumerate()
                 .map(|(k, &x)| (u64::from(grid.cell_of(x)) << 32) | k as u64),
         );
+        // (the keys are in try order, so a stable sort by the cell alone orders them by cell,
+        // then by try, as a sort of the whole keys would)
         radsort::sort_by_key(&mut self.by_cell, |&key| (key >> 32) as u32);
         let tries = &self.tries;
         self.sorted_tries.clear();
