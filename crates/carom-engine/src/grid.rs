@@ -396,7 +396,7 @@ pub fn widened_reach(coordinate: f64, reach: f64) -> f64 {
 
 /// Most cells a derived layout may have for `n` particles: never more than a few per particle,
 /// since an empty cell still costs a visit.
-pub(crate) fn cell_limit(n: usize) -> f64 {
+pub fn cell_limit(n: usize) -> f64 {
     ((4 * n).max(64) as f64).min(MAX_CELLS as f64)
 }
 
@@ -411,7 +411,7 @@ pub(crate) fn largest(values: &[f64]) -> f64 {
 }
 
 /// The smallest box holding every position (a zero box when there are none).
-pub(crate) fn bounding_box<V: Vector>(positions: &[V]) -> Aabb<V> {
+pub fn bounding_box<V: Vector>(positions: &[V]) -> Aabb<V> {
     let (min, max) = positions
         .par_iter()
         .fold(

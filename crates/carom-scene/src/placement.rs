@@ -5,8 +5,8 @@
 //! them nearly in the order they lie in memory, instead of one cache miss after another.
 //! [`PlacementGrid::merge`] adds a batch's particles (sorted by cell) in place. While a batch is
 //! decided, the grid also indexes the batch's own *survivors* (the tries that overlap nothing
-//! placed before the batch, in cell order) by their first in each block of cells, so that each can be
-//! checked against the survivors around it (see [`crate::screen`]).
+//! placed before the batch, in cell order) by their first in each block of cells, so that each
+//! can be checked against the survivors around it (see [`crate::screen`]).
 //!
 //! The cells are the engine's grid layout ([`GridLayout`]), at least one largest diameter
 //! wide, so every particle that can touch a new one lies in the 3^D cells around it (up to 4

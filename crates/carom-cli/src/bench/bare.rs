@@ -17,7 +17,7 @@
 //! how much of the rest is carom's.
 
 use carom_engine::bucket::counting_sort_parallel;
-use carom_engine::grid::GridLayout;
+use carom_engine::grid::{self, GridLayout};
 use carom_engine::response::{collide, contact_normal, is_approaching, is_overlapping};
 use carom_engine::{Aabb, Particles, Plane, Vector, World};
 use rayon::prelude::*;
@@ -76,19 +76,12 @@ struct Bare<V: Vector> {
 
 /// The bare step's fixed grid: the engine's own layout (the lecture's hash, see
 /// [`GridLayout`]) over the world's domain or, without one, the particles' first bounding box,
-/// cells at least one largest diameter wide (so every pair lies in neighbouring cells), at most
-/// four per particle (and at least 64 in all, fewer than `u32::MAX`). Particles beyond it are
-/// clamped into its border cells, and still found.
+/// cells at least one largest diameter wide (so every pair lies in neighbouring cells), as many
+/// as the engine's own grid would take ([`grid::cell_limit`]). Particles beyond it are clamped
+/// into its border cells, and still found.
 fn fit_cells<V: Vector>(position: &[V], domain: Option<Aabb<V>>, max_radius: f64) -> GridLayout {
-    let bounds = domain.unwrap_or_else(|| {
-        let far = |sign: f64| V::from_slice(&[sign * f64::INFINITY; 3][..V::DIM]);
-        let (min, max) = (position.iter()).fold((far(1.0), far(-1.0)), |(lo, hi), &x| {
-            (lo.min_components(x), hi.max_components(x))
-        });
-        Aabb { min, max }
-    });
-    let most = (4 * position.len()).clamp(64, u32::MAX as usize - 1) as f64;
-    GridLayout::fit(&bounds, max_radius, None, most)
+    let bounds = domain.unwrap_or_else(|| grid::bounding_box(position));
+    GridLayout::fit(&bounds, max_radius, None, grid::cell_limit(position.len()))
 }
 
 /// The cell of `x` in `cells`, as a linear index.

@@ -21,35 +21,46 @@ impl<V: Vector> Fill<V> {
     }
 
     /// The next `n` velocities of `stream` ([`Fill::velocity`] `n` times, [`VELOCITY_DRAWS`]
-    /// numbers each) into `out`, drawn on the thread pool in chunks, each from the stream
-    /// advanced to its first: the same velocities in the same order for any thread count.
+    /// numbers each) into `out` (see [`draw_in_chunks`]).
     pub(super) fn velocities(&self, stream: &mut Pcg64, n: usize, out: &mut Vec<V>) {
-        let draws = VELOCITY_DRAWS[V::DIM - 2];
         out.clear();
         out.resize(n, V::ZERO);
-        out.par_chunks_mut(DRAWS_PER_TASK)
-            .enumerate()
-            .for_each(|(c, chunk)| {
-                let mut numbers = stream.clone();
-                numbers.advance((c * DRAWS_PER_TASK * draws) as u128);
-                for v in chunk {
-                    *v = self.velocity(&mut numbers);
-                }
-            });
-        stream.advance((n * draws) as u128);
+        let draws = VELOCITY_DRAWS[V::DIM - 2];
+        draw_in_chunks(stream, out, draws, |numbers| self.velocity(numbers));
     }
 }
 
 /// Numbers of the random stream one [`Fill::velocity`] takes in 2D and in 3D: a direction
 /// (an angle; or a height and an angle) and a speed.
-pub(super) const VELOCITY_DRAWS: [usize; 2] = [2, 3];
+const VELOCITY_DRAWS: [usize; 2] = [2, 3];
 
-/// Velocities (or tries) one task of [`Fill::velocities`] (or [`draw_tries`]) draws.
-pub(super) const DRAWS_PER_TASK: usize = 8192;
+/// Items (tries or velocities) one task of [`draw_in_chunks`] draws.
+const DRAWS_PER_TASK: usize = 8192;
+
+/// Fills `out` with `draw` of the stream, item after item, each taking exactly `numbers` of
+/// it, and leaves `stream` past them all: on the thread pool in chunks, each from the stream
+/// advanced to its first item, so the same items in the same order for any thread count.
+fn draw_in_chunks<T: Send>(
+    stream: &mut Pcg64,
+    out: &mut [T],
+    numbers: usize,
+    draw: impl Fn(&mut Pcg64) -> T + Sync,
+) {
+    let start: &Pcg64 = stream;
+    out.par_chunks_mut(DRAWS_PER_TASK)
+        .enumerate()
+        .for_each(|(chunk_index, chunk)| {
+            let mut chunk_stream = start.clone();
+            chunk_stream.advance((chunk_index * DRAWS_PER_TASK * numbers) as u128);
+            for item in chunk {
+                *item = draw(&mut chunk_stream);
+            }
+        });
+    stream.advance((out.len() * numbers) as u128);
+}
 
 /// The next `size` random tries of `stream` (one number a coordinate) in the box `(lo, span)`,
-/// each passed through `wrap`, appended to `tries`: drawn on the thread pool in chunks, each
-/// from the stream advanced to its first, so the same tries for any thread count.
+/// each passed through `wrap`, appended to `tries` (see [`draw_in_chunks`]).
 pub(super) fn draw_tries<V: Vector>(
     stream: &mut Pcg64,
     (lo, span): (V, V),
@@ -59,22 +70,13 @@ pub(super) fn draw_tries<V: Vector>(
 ) {
     let first = tries.len();
     tries.resize(first + size, V::ZERO);
-    let numbers: &Pcg64 = stream;
-    tries[first..]
-        .par_chunks_mut(DRAWS_PER_TASK)
-        .enumerate()
-        .for_each(|(chunk_index, chunk)| {
-            let mut numbers = numbers.clone();
-            numbers.advance((chunk_index * DRAWS_PER_TASK * V::DIM) as u128);
-            for x in chunk {
-                let mut c = [0.0; 3];
-                for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
-                    *slot = lo.get(a) + span.get(a) * numbers.random::<f64>();
-                }
-                *x = wrap(V::from_slice(&c));
-            }
-        });
-    stream.advance((size * V::DIM) as u128);
+    draw_in_chunks(stream, &mut tries[first..], V::DIM, |numbers| {
+        let mut c = [0.0; 3];
+        for (a, slot) in c.iter_mut().enumerate().take(V::DIM) {
+            *slot = lo.get(a) + span.get(a) * numbers.random::<f64>();
+        }
+        wrap(V::from_slice(&c))
+    });
 }
 
 /// A uniformly random unit vector.
