@@ -150,11 +150,18 @@ impl<V: Vector> Grid<V> {
             cell_start: &self.cell_start,
         };
         let ids = &self.ids;
+        let wraps = after.wraps.contains(&true);
         let work = |(task, out): (usize, &mut Vec<Pair>)| {
             out.clear();
             for r in task * rows_per_task..((task + 1) * rows_per_task).min(rows) {
                 let (z, y) = (r / height, r % height);
                 let mut runs = [(0, 0); MOST_RUNS];
+                let mut rows_after = [0; MOST_RUNS];
+                let row_count = if wraps {
+                    0
+                } else {
+                    after.rows_after(z, y, &mut rows_after)
+                };
                 for x in 0..width {
                     let (start, end) = after.run(z, y, x, x);
                     if start == end {
@@ -162,7 +169,15 @@ impl<V: Vector> Grid<V> {
                     }
                     // (written in place: returned by value, the runs were copied through the
                     // stack, and the copy's wide load waited on their narrow stores)
-                    let (own_end, count) = after.runs(z, y, x, &mut runs);
+                    let (own_end, count) = if wraps {
+                        after.runs(z, y, x, &mut runs)
+                    } else {
+                        let rows_after = &rows_after[..row_count];
+                        (
+                            after.runs_in_rows(r * width, x, rows_after, &mut runs),
+                            row_count,
+                        )
+                    };
                     if !still.is_empty() {
                         let moves = |(first, last): (usize, usize)| {
                             ids[first..last].iter().any(|&id| !still[id as usize])
@@ -303,7 +318,9 @@ impl Forward<'_> {
     /// For cell `x` of row `y` of layer `z`: writes the runs after it (see [`Forward`]) into
     /// the first places of `into`, and returns where the run from each of its particles ends
     /// (its own cell and, in the same run, the next one when no seam lies between) and how
-    /// many runs it wrote.
+    /// many runs it wrote. For grids that wrap on some axis, whose partners lie one cell
+    /// apart (without wraps, [`Forward::runs_in_rows`] gives the same runs with two loads a
+    /// row).
     #[inline]
     fn runs(
         &self,
@@ -313,9 +330,6 @@ impl Forward<'_> {
         into: &mut [(usize, usize); MOST_RUNS],
     ) -> (usize, usize) {
         let width = self.cells[0];
-        if self.apart > 1 {
-            return self.runs_apart(z, y, x, into);
-        }
         let mut runs = (into, 0);
         let own_end = self.run(z, y, x, (x + 1).min(width - 1)).1;
         if x + 1 == width && self.wraps[0] {
@@ -342,24 +356,18 @@ impl Forward<'_> {
         (own_end, runs.1)
     }
 
-    /// [`Forward::runs`] for partners up to `apart` cells apart, without wraps: the rest of
-    /// the row to `x + apart`, the `apart` rows after it from `x - apart` to `x + apart`, and
-    /// in 3D the `apart` layers after it, rows `y - apart` to `y + apart`.
+    /// Without wraps, the rows [`Forward::runs`] visits from any cell of row `y` of layer
+    /// `z`, each as its first cell's index, written into the first places of `into`: the
+    /// `apart` rows after it, and in 3D the `apart` layers after it, rows `y - apart` to
+    /// `y + apart`. Returns how many it wrote. (Once a row: a cell's runs are then two loads
+    /// a row, see [`Forward::runs_in_rows`].)
     #[inline]
-    fn runs_apart(
-        &self,
-        z: usize,
-        y: usize,
-        x: usize,
-        into: &mut [(usize, usize); MOST_RUNS],
-    ) -> (usize, usize) {
+    fn rows_after(&self, z: usize, y: usize, into: &mut [usize; MOST_RUNS]) -> usize {
         let [width, height, depth] = self.cells;
         let a = self.apart;
-        let (first, last) = (x.saturating_sub(a), (x + a).min(width - 1));
-        let own_end = self.run(z, y, x, last).1;
         let mut count = 0;
         let mut add = |z: usize, y: usize| {
-            into[count] = self.run(z, y, first, last);
+            into[count] = (z * height + y) * width;
             count += 1;
         };
         for y in y + 1..=(y + a).min(height - 1) {
@@ -370,7 +378,28 @@ impl Forward<'_> {
                 add(z, y);
             }
         }
-        (own_end, count)
+        count
+    }
+
+    /// [`Forward::runs`] without wraps, for cell `x` of the row whose first cell is `row`,
+    /// from that row's `rows_after` (see [`Forward::rows_after`]): writes the runs of cells
+    /// `x - apart..=x + apart` of each into the first places of `into`, and returns where the
+    /// run from each of the cell's particles ends (the rest of its row to `x + apart`).
+    #[inline]
+    fn runs_in_rows(
+        &self,
+        row: usize,
+        x: usize,
+        rows_after: &[usize],
+        into: &mut [(usize, usize); MOST_RUNS],
+    ) -> usize {
+        let a = self.apart;
+        let (first, end) = (x.saturating_sub(a), (x + a).min(self.cells[0] - 1) + 1);
+        for (run, &base) in into.iter_mut().zip(rows_after) {
+            let start = self.cell_start[base + first] as usize;
+            *run = (start, self.cell_start[base + end] as usize);
+        }
+        self.cell_start[row + end] as usize
     }
 }
 
