@@ -150,18 +150,15 @@ impl<V: Vector> Grid<V> {
             cell_start: &self.cell_start,
         };
         let ids = &self.ids;
-        let wraps = after.wraps.contains(&true);
+        let seam = after.wraps[0];
         let work = |(task, out): (usize, &mut Vec<Pair>)| {
             out.clear();
             for r in task * rows_per_task..((task + 1) * rows_per_task).min(rows) {
                 let (z, y) = (r / height, r % height);
                 let mut runs = [(0, 0); MOST_RUNS];
                 let mut rows_after = [0; MOST_RUNS];
-                let row_count = if wraps {
-                    0
-                } else {
-                    after.rows_after(z, y, &mut rows_after)
-                };
+                let row_count = after.rows_after(z, y, &mut rows_after);
+                let rows_after = &rows_after[..row_count];
                 for x in 0..width {
                     let (start, end) = after.run(z, y, x, x);
                     if start == end {
@@ -169,10 +166,9 @@ impl<V: Vector> Grid<V> {
                     }
                     // (written in place: returned by value, the runs were copied through the
                     // stack, and the copy's wide load waited on their narrow stores)
-                    let (own_end, count) = if wraps {
-                        after.runs(z, y, x, &mut runs)
+                    let (own_end, count) = if seam && (x == 0 || x + 1 == width) {
+                        after.runs_at_seam(r * width, x, rows_after, &mut runs)
                     } else {
-                        let rows_after = &rows_after[..row_count];
                         (
                             after.runs_in_rows(r * width, x, rows_after, &mut runs),
                             row_count,
@@ -262,10 +258,11 @@ struct Forward<'a> {
 /// [`Grid::searches_from_one_side`]): further, the search goes particle by particle.
 pub(super) const MOST_CELLS_APART: usize = 3;
 
-/// The most runs [`Forward::runs`] gives: one cell apart, the next cell, then up to two runs
-/// (a row's three cells split by its seam) in each of the next row and the next layer's three
-/// rows (9); `a` cells apart (no seams), `a` rows after it and `a` layers of `2 a + 1` rows
-/// (24 for `a` = 3).
+/// The most runs a cell scans after its own, and the most rows after it (see
+/// [`Forward::rows_after`]): one cell apart, the own row's first cell across its seam, then up
+/// to two runs (a row's three cells split by its seam) in each of the next row and the next
+/// layer's three rows (9); `a` cells apart (no seams), `a` rows after it and `a` layers of
+/// `2 a + 1` rows (24 for `a` = 3).
 const MOST_RUNS: usize = MOST_CELLS_APART * (2 * MOST_CELLS_APART + 2);
 
 impl Forward<'_> {
@@ -287,80 +284,13 @@ impl Forward<'_> {
         }
     }
 
-    /// Adds to `runs` the cells `x - 1..=x + 1` of row `y` of layer `z` (one run, or two
-    /// across the seam).
-    #[inline]
-    fn add_three(
-        &self,
-        z: usize,
-        y: usize,
-        x: usize,
-        runs: &mut (&mut [(usize, usize); MOST_RUNS], usize),
-    ) {
-        let width = self.cells[0];
-        let mut add = |first: usize, last: usize| {
-            runs.0[runs.1] = self.run(z, y, first, last);
-            runs.1 += 1;
-        };
-        match (self.wraps[0], x) {
-            (true, 0) => {
-                add(0, 1.min(width - 1));
-                add(width - 1, width - 1);
-            }
-            (true, x) if x + 1 == width => {
-                add(x - 1, x);
-                add(0, 0);
-            }
-            _ => add(x.saturating_sub(1), (x + 1).min(width - 1)),
-        }
-    }
-
-    /// For cell `x` of row `y` of layer `z`: writes the runs after it (see [`Forward`]) into
-    /// the first places of `into`, and returns where the run from each of its particles ends
-    /// (its own cell and, in the same run, the next one when no seam lies between) and how
-    /// many runs it wrote. For grids that wrap on some axis, whose partners lie one cell
-    /// apart (without wraps, [`Forward::runs_in_rows`] gives the same runs with two loads a
-    /// row).
-    #[inline]
-    fn runs(
-        &self,
-        z: usize,
-        y: usize,
-        x: usize,
-        into: &mut [(usize, usize); MOST_RUNS],
-    ) -> (usize, usize) {
-        let width = self.cells[0];
-        let mut runs = (into, 0);
-        let own_end = self.run(z, y, x, (x + 1).min(width - 1)).1;
-        if x + 1 == width && self.wraps[0] {
-            runs.0[0] = self.run(z, y, 0, 0);
-            runs.1 = 1;
-        }
-        if let Some(up) = self.next(1, y) {
-            self.add_three(z, up, x, &mut runs);
-        }
-        if let Some(above) = self.next(2, z) {
-            let height = self.cells[1];
-            let (below, over) = if self.wraps[1] {
-                ((y + height - 1) % height, (y + 1) % height)
-            } else {
-                (y.saturating_sub(1), (y + 1).min(height - 1))
-            };
-            // (three rows; without a wrap, fewer at the ends)
-            let mut row = Some(below);
-            while let Some(r) = row {
-                self.add_three(above, r, x, &mut runs);
-                row = (r != over).then(|| (r + 1) % height);
-            }
-        }
-        (own_end, runs.1)
-    }
-
-    /// Without wraps, the rows [`Forward::runs`] visits from any cell of row `y` of layer
-    /// `z`, each as its first cell's index, written into the first places of `into`: the
-    /// `apart` rows after it, and in 3D the `apart` layers after it, rows `y - apart` to
-    /// `y + apart`. Returns how many it wrote. (Once a row: a cell's runs are then two loads
-    /// a row, see [`Forward::runs_in_rows`].)
+    /// The rows whose cells around `x` are after cell `x` of row `y` of layer `z` (see
+    /// [`Forward`]), the same for every cell of the row, each as its first cell's index,
+    /// written into the first places of `into`: the next row and in 3D the next layer's
+    /// three rows, wrapped around the axes that wrap and cut at the others' ends; `a` cells
+    /// apart (no wraps), the `a` rows after it and in 3D the `a` layers after it, rows
+    /// `y - a` to `y + a`. Returns how many it wrote. (Once a row: a cell's runs are then two
+    /// loads a row, see [`Forward::runs_in_rows`].)
     #[inline]
     fn rows_after(&self, z: usize, y: usize, into: &mut [usize; MOST_RUNS]) -> usize {
         let [width, height, depth] = self.cells;
@@ -370,21 +300,41 @@ impl Forward<'_> {
             into[count] = (z * height + y) * width;
             count += 1;
         };
-        for y in y + 1..=(y + a).min(height - 1) {
-            add(z, y);
-        }
-        for z in z + 1..=(z + a).min(depth - 1) {
-            for y in y.saturating_sub(a)..=(y + a).min(height - 1) {
+        if a > 1 {
+            for y in y + 1..=(y + a).min(height - 1) {
                 add(z, y);
+            }
+            for z in z + 1..=(z + a).min(depth - 1) {
+                for y in y.saturating_sub(a)..=(y + a).min(height - 1) {
+                    add(z, y);
+                }
+            }
+            return count;
+        }
+        if let Some(up) = self.next(1, y) {
+            add(z, up);
+        }
+        if let Some(above) = self.next(2, z) {
+            let (below, over) = if self.wraps[1] {
+                ((y + height - 1) % height, (y + 1) % height)
+            } else {
+                (y.saturating_sub(1), (y + 1).min(height - 1))
+            };
+            // (three rows; without a wrap, fewer at the ends)
+            let mut row = Some(below);
+            while let Some(r) = row {
+                add(above, r);
+                row = (r != over).then(|| (r + 1) % height);
             }
         }
         count
     }
 
-    /// [`Forward::runs`] without wraps, for cell `x` of the row whose first cell is `row`,
-    /// from that row's `rows_after` (see [`Forward::rows_after`]): writes the runs of cells
-    /// `x - apart..=x + apart` of each into the first places of `into`, and returns where the
-    /// run from each of the cell's particles ends (the rest of its row to `x + apart`).
+    /// For cell `x` of the row whose first cell is `row`, not at a seam of its row: writes
+    /// the runs after it (see [`Forward`]), the cells `x - apart..=x + apart` of each of the
+    /// row's `rows_after` (see [`Forward::rows_after`]), into the first places of `into`, and
+    /// returns where the run from each of the cell's particles ends (the rest of its own cell
+    /// and the cells of its row to `x + apart`).
     #[inline]
     fn runs_in_rows(
         &self,
@@ -400,6 +350,42 @@ impl Forward<'_> {
             *run = (start, self.cell_start[base + end] as usize);
         }
         self.cell_start[row + end] as usize
+    }
+
+    /// [`Forward::runs_in_rows`] for the cell `x` at a seam of a row that wraps (the first
+    /// or the last; partners then lie one cell apart), whose three cells around it in each
+    /// row after it are two runs: returns also how many runs it wrote.
+    #[inline]
+    fn runs_at_seam(
+        &self,
+        row: usize,
+        x: usize,
+        rows_after: &[usize],
+        into: &mut [(usize, usize); MOST_RUNS],
+    ) -> (usize, usize) {
+        let last = self.cells[0] - 1;
+        let mut count = 0;
+        let mut add = |base: usize, first: usize, end: usize| {
+            let start = self.cell_start[base + first] as usize;
+            into[count] = (start, self.cell_start[base + end + 1] as usize);
+            count += 1;
+        };
+        let own_end = if x == last {
+            add(row, 0, 0);
+            self.cell_start[row + x + 1] as usize
+        } else {
+            self.cell_start[row + x + 2] as usize
+        };
+        for &base in rows_after {
+            if x == 0 {
+                add(base, 0, 1);
+                add(base, last, last);
+            } else {
+                add(base, x - 1, x);
+                add(base, 0, 0);
+            }
+        }
+        (own_end, count)
     }
 }
 
