@@ -50,9 +50,15 @@ impl<V: Vector> Grid<V> {
             } else {
                 let keep = |pair: Pair| !still.both(pair);
                 let apart = self.layout.cells_apart::<V>(max_radius);
-                self.walk_cells(positions, apart, Some(&keep), still.flags, pairs, |i, j| {
-                    is_overlapping(positions[i], positions[j], radii[i], radii[j])
-                });
+                self.walk_cells(
+                    positions,
+                    apart,
+                    Some(&keep),
+                    still.flags,
+                    pairs,
+                    |i, j| is_overlapping(positions[i], positions[j], radii[i], radii[j]),
+                    None,
+                );
                 Self::add_still_pairs(positions, radii, &still, pairs);
             }
             raise_over_pairs(raised, radii, pairs, raising, n >= PARALLEL_SEARCH_MIN);

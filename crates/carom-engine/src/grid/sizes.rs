@@ -57,11 +57,19 @@ impl<V: Vector> Grid<V> {
     ) {
         let is_small = |i: usize| radii[i] <= small;
         let apart = self.layout.cells_apart::<V>(small);
-        self.walk_cells(positions, apart, keep, &[], pairs, |i, j| {
-            is_small(i)
-                & is_small(j)
-                & is_overlapping(positions[i], positions[j], radii[i], radii[j])
-        });
+        self.walk_cells(
+            positions,
+            apart,
+            keep,
+            &[],
+            pairs,
+            |i, j| {
+                is_small(i)
+                    & is_small(j)
+                    & is_overlapping(positions[i], positions[j], radii[i], radii[j])
+            },
+            None,
+        );
         let layout = self.layout;
         let (cell_start, ids) = (&self.cell_start, &self.ids);
         let extra = &mut self.raised_extra;
