@@ -106,11 +106,10 @@ impl<V: Vector> Grid<V> {
         keep: Option<&PairFilter<'_>>,
         pairs: &mut Vec<Pair>,
     ) {
-        let apart = self.layout.cells_apart::<V>(max_radius);
         let overlaps =
             |i: usize, j: usize| is_overlapping(positions[i], positions[j], radii[i], radii[j]);
         match self.periodic {
-            None => self.walk_cells(positions, apart, keep, &[], pairs, overlaps, None),
+            None => self.walk_cells(positions, max_radius, keep, &[], pairs, overlaps, None),
             // (at the minimum image as the lower particle sees it, as every other search
             // tests a pair: the image is rounded differently from the other side; away from
             // the seams that image is the partner itself, and the test `overlaps`, bit for bit)
@@ -120,13 +119,22 @@ impl<V: Vector> Grid<V> {
                     let image = periodic.image(positions[low], positions[high]);
                     is_overlapping(positions[low], image, radii[low], radii[high])
                 };
-                self.walk_cells(positions, apart, keep, &[], pairs, overlaps, Some(&across));
+                self.walk_cells(
+                    positions,
+                    max_radius,
+                    keep,
+                    &[],
+                    pairs,
+                    overlaps,
+                    Some(&across),
+                );
             }
         }
     }
 
-    /// The walk of [`Grid::search_from_one_side`] over partners up to `apart` cells apart (see
-    /// [`GridLayout::cells_apart`]), with `overlaps(i, j)` the pair test. A
+    /// The walk of [`Grid::search_from_one_side`] over partners of radius at most `max_radius`
+    /// (so up to [`GridLayout::cells_apart`] cells apart), with `overlaps(i, j)` the pair
+    /// test. A
     /// cell whose particles and those of the cells after it are all `still` (per particle;
     /// empty when none is) is passed over: `keep` must then drop every pair of two still
     /// particles, which the caller takes from elsewhere (see [`crate::broadphase::Still`]).
@@ -140,7 +148,7 @@ impl<V: Vector> Grid<V> {
     pub(super) fn walk_cells(
         &mut self,
         positions: &[V],
-        apart: usize,
+        max_radius: f64,
         keep: Option<&PairFilter<'_>>,
         still: &[bool],
         pairs: &mut Vec<Pair>,
@@ -148,6 +156,7 @@ impl<V: Vector> Grid<V> {
         across: Option<&(dyn Fn(usize, usize) -> bool + Sync)>,
     ) {
         let layout = self.layout;
+        let apart = layout.cells_apart::<V>(max_radius);
         let [width, height, depth] = layout.cells;
         let rows = height * depth;
         let rows_per_task = (CELLS_PER_TASK / width).clamp(1, rows.div_ceil(FEWEST_TASKS).max(1));
@@ -325,57 +334,42 @@ impl Forward<'_> {
         })
     }
 
-    /// The coordinate after `c` on `axis`: wrapped, or `None` past the end.
+    /// The coordinate `by` cells from `c` on `axis`: wrapped round when the axis wraps, else
+    /// `None` beyond its ends.
     #[inline]
-    fn next(&self, axis: usize, c: usize) -> Option<usize> {
-        if c + 1 < self.cells[axis] {
-            Some(c + 1)
+    fn moved(&self, axis: usize, c: usize, by: isize) -> Option<usize> {
+        let (n, to) = (self.cells[axis] as isize, c as isize + by);
+        if (0..n).contains(&to) {
+            Some(to as usize)
         } else {
-            self.wraps[axis].then_some(0)
+            self.wraps[axis].then(|| to.rem_euclid(n) as usize)
         }
     }
 
     /// The rows whose cells around `x` are after cell `x` of row `y` of layer `z` (see
     /// [`Forward`]), the same for every cell of the row, each as its first cell's index,
-    /// written into the first places of `into`: the next row and in 3D the next layer's
-    /// three rows, wrapped around the axes that wrap and cut at the others' ends; `a` cells
-    /// apart (no wraps), the `a` rows after it and in 3D the `a` layers after it, rows
-    /// `y - a` to `y + a`. Returns how many it wrote. (Once a row: a cell's runs are then two
-    /// loads a row, see [`Forward::runs_in_rows`].)
+    /// written into the first places of `into`: the `apart` rows after it, and in 3D the
+    /// `apart` layers after it, rows `y - apart` to `y + apart`, wrapped round the axes that
+    /// wrap (partners then lie one cell apart, and an axis that wraps has three cells or more,
+    /// so no row comes twice) and cut at the others' ends. Returns how many it wrote. (Once a
+    /// row: a cell's runs are then two loads a row, see [`Forward::runs_in_rows`].)
     #[inline]
     fn rows_after(&self, z: usize, y: usize, into: &mut [usize; MOST_RUNS]) -> usize {
-        let [width, height, depth] = self.cells;
-        let a = self.apart;
+        let [width, height, _] = self.cells;
+        let a = self.apart as isize;
         let mut count = 0;
-        let mut add = |z: usize, y: usize| {
-            into[count] = (z * height + y) * width;
-            count += 1;
+        let mut add = |z: Option<usize>, y: Option<usize>| {
+            if let (Some(z), Some(y)) = (z, y) {
+                into[count] = (z * height + y) * width;
+                count += 1;
+            }
         };
-        if a > 1 {
-            for y in y + 1..=(y + a).min(height - 1) {
-                add(z, y);
-            }
-            for z in z + 1..=(z + a).min(depth - 1) {
-                for y in y.saturating_sub(a)..=(y + a).min(height - 1) {
-                    add(z, y);
-                }
-            }
-            return count;
+        for dy in 1..=a {
+            add(Some(z), self.moved(1, y, dy));
         }
-        if let Some(up) = self.next(1, y) {
-            add(z, up);
-        }
-        if let Some(above) = self.next(2, z) {
-            let (below, over) = if self.wraps[1] {
-                ((y + height - 1) % height, (y + 1) % height)
-            } else {
-                (y.saturating_sub(1), (y + 1).min(height - 1))
-            };
-            // (three rows; without a wrap, fewer at the ends)
-            let mut row = Some(below);
-            while let Some(r) = row {
-                add(above, r);
-                row = (r != over).then(|| (r + 1) % height);
+        for dz in 1..=a {
+            for dy in -a..=a {
+                add(self.moved(2, z, dz), self.moved(1, y, dy));
             }
         }
         count

@@ -49,10 +49,9 @@ impl<V: Vector> Grid<V> {
                 self.search_from_one_side(positions, radii, max_radius, None, pairs);
             } else {
                 let keep = |pair: Pair| !still.both(pair);
-                let apart = self.layout.cells_apart::<V>(max_radius);
                 self.walk_cells(
                     positions,
-                    apart,
+                    max_radius,
                     Some(&keep),
                     still.flags,
                     pairs,

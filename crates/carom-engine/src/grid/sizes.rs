@@ -56,10 +56,9 @@ impl<V: Vector> Grid<V> {
         pairs: &mut Vec<Pair>,
     ) {
         let is_small = |i: usize| radii[i] <= small;
-        let apart = self.layout.cells_apart::<V>(small);
         self.walk_cells(
             positions,
-            apart,
+            small,
             keep,
             &[],
             pairs,
