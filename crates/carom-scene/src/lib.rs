@@ -13,6 +13,7 @@ mod placement;
 mod presets;
 mod raw;
 mod screen;
+mod sections;
 mod walls;
 
 pub use error::SceneError;
@@ -20,16 +21,10 @@ pub use overrides::{check_cells, OverrideError, RunSettings};
 pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
 
 use carom_engine::glam::{DVec2, DVec3};
-use carom_engine::grid::MAX_CELLS;
 use carom_engine::periodic::shortest_period;
-use carom_engine::world::{
-    DEFAULT_POSITION_ITERATIONS, DEFAULT_RETAKES, DEFAULT_SUBSTEPS, DEFAULT_VELOCITY_ITERATIONS,
-};
-use carom_engine::{
-    Aabb, BroadPhaseKind, EngineError, Particles, Periodic, Plane, Vector, World, WorldConfig,
-};
+use carom_engine::{Aabb, EngineError, Particles, Periodic, Plane, Vector, World, WorldConfig};
 use carom_engine::{ContactImpulses, Tally};
-use raw::{RawBroadPhaseKind, RawScene};
+use raw::RawScene;
 use std::path::Path;
 
 /// Steps run when a scene gives no `steps`.
@@ -347,8 +342,8 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     }
     let wraps = periodic.iter().any(|&a| a);
 
-    let (broad_phase, grid_cells) = broad_phase::<V>(ctx, &raw, walls.is_some(), wraps)?;
-    let SolverSettings {
+    let (broad_phase, grid_cells) = sections::broad_phase::<V>(ctx, &raw, walls.is_some(), wraps)?;
+    let sections::SolverSettings {
         velocity_iterations,
         position_iterations,
         substeps,
@@ -358,7 +353,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         sleep,
         sleep_speed,
         sleep_time,
-    } = solver(ctx, &raw)?;
+    } = sections::solver(ctx, &raw)?;
     let planes = planes::<V>(ctx, &raw, restitution)?;
 
     let wrap = domain.and_then(|d| Periodic::new(&d, &periodic));
@@ -395,162 +390,6 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         walls,
         planes,
         particles,
-    })
-}
-
-/// `[broadphase]`: the kind (by default the grid when `walls` close the domain or it `wraps`,
-/// else the unbounded hash) and the grid's cells, if given.
-fn broad_phase<V: Vector>(
-    ctx: &Ctx,
-    raw: &RawScene,
-    walls: bool,
-    wraps: bool,
-) -> Result<(BroadPhaseKind, Option<Vec<usize>>), SceneError> {
-    // Default: the lecture's grid when walls close the domain (or it wraps around), otherwise
-    // the unbounded hash (particles may roam anywhere, and a grid would clamp them into its
-    // border cells).
-    let mut broad_phase = if walls || wraps {
-        BroadPhaseKind::Grid
-    } else {
-        BroadPhaseKind::Hash
-    };
-    let mut grid_cells = None;
-    if let Some(b) = &raw.broadphase {
-        match b.kind {
-            Some(RawBroadPhaseKind::Brute) => broad_phase = BroadPhaseKind::Brute,
-            Some(RawBroadPhaseKind::Grid) => broad_phase = BroadPhaseKind::Grid,
-            Some(RawBroadPhaseKind::Hash) => broad_phase = BroadPhaseKind::Hash,
-            None => {}
-        }
-        if wraps && broad_phase == BroadPhaseKind::Hash {
-            return Err(ctx.err(
-                "broadphase.kind",
-                "the unbounded hash does not support periodic axes: use \"grid\" or \"brute\"",
-            ));
-        }
-        if let Some(cells) = &b.cells {
-            if cells.len() != V::DIM {
-                return Err(ctx.err(
-                    "broadphase.cells",
-                    format!("needs {} entries, got {}", V::DIM, cells.len()),
-                ));
-            }
-            let mut total: u64 = 1;
-            let mut out = Vec::with_capacity(V::DIM);
-            for &c in cells {
-                if c < 1 {
-                    return Err(ctx.err(
-                        "broadphase.cells",
-                        format!("every entry must be >= 1, got {cells:?}"),
-                    ));
-                }
-                total = total.saturating_mul(c as u64);
-                out.push(c as usize);
-            }
-            if total > MAX_CELLS {
-                return Err(ctx.err(
-                    "broadphase.cells",
-                    format!("{total} cells in all is more than the limit {MAX_CELLS}"),
-                ));
-            }
-            if broad_phase != BroadPhaseKind::Grid {
-                return Err(ctx.err(
-                    "broadphase.cells",
-                    "only the grid has cells: set kind = \"grid\" or drop cells",
-                ));
-            }
-            grid_cells = Some(out);
-        }
-    }
-
-    Ok((broad_phase, grid_cells))
-}
-
-/// The most `[solver] retakes` a scene may ask for: each costs up to a step again.
-const MOST_RETAKES: i64 = 8;
-
-/// `[solver]`, checked, with the defaults filled in.
-struct SolverSettings {
-    velocity_iterations: u32,
-    position_iterations: u32,
-    substeps: u32,
-    retakes: u32,
-    cover_pushes: bool,
-    resting_speed: Option<f64>,
-    sleep: bool,
-    sleep_speed: Option<f64>,
-    sleep_time: f64,
-}
-
-/// `[solver]`, checked.
-fn solver(ctx: &Ctx, raw: &RawScene) -> Result<SolverSettings, SceneError> {
-    let (mut velocity_iterations, mut position_iterations, mut substeps) = (
-        DEFAULT_VELOCITY_ITERATIONS,
-        DEFAULT_POSITION_ITERATIONS,
-        DEFAULT_SUBSTEPS,
-    );
-    let mut retakes = DEFAULT_RETAKES;
-    if let Some(s) = &raw.solver {
-        if let Some(n) = s.substeps {
-            if !(1..=1000).contains(&n) {
-                return Err(ctx.err("solver.substeps", format!("must be in 1..=1000, got {n}")));
-            }
-            substeps = n as u32;
-        }
-        if let Some(n) = s.retakes {
-            if !(0..=MOST_RETAKES).contains(&n) {
-                let range = format!("must be in 0..={MOST_RETAKES}, got {n}");
-                return Err(ctx.err("solver.retakes", range));
-            }
-            retakes = n as u32;
-        }
-        if let Some(v) = s.velocity_iterations {
-            if !(1..=1_000_000).contains(&v) {
-                return Err(ctx.err(
-                    "solver.velocity_iterations",
-                    format!("must be in 1..=1000000, got {v}"),
-                ));
-            }
-            velocity_iterations = v as u32;
-        }
-        if let Some(p) = s.position_iterations {
-            if !(0..=1_000_000).contains(&p) {
-                return Err(ctx.err(
-                    "solver.position_iterations",
-                    format!("must be in 0..=1000000, got {p}"),
-                ));
-            }
-            position_iterations = p as u32;
-        }
-    }
-
-    let resting_speed = match raw.solver.as_ref().and_then(|s| s.resting_speed) {
-        Some(v) => Some(ctx.non_negative("solver.resting_speed", v)?),
-        None => None,
-    };
-
-    let solver = raw.solver.as_ref();
-    let cover_pushes = solver.and_then(|s| s.cover_pushes).unwrap_or(false);
-    let sleep = solver.and_then(|s| s.sleep).unwrap_or(true);
-    let sleep_speed = match solver.and_then(|s| s.sleep_speed) {
-        Some(v) => Some(ctx.positive("solver.sleep_speed", v)?),
-        None => None,
-    };
-    let sleep_time = match solver.and_then(|s| s.sleep_time) {
-        Some(v) => ctx.positive("solver.sleep_time", v)?,
-        None => carom_engine::sleep::DEFAULT_SLEEP_TIME,
-    };
-
-    Ok(SolverSettings {
-        velocity_iterations,
-        position_iterations,
-        substeps,
-        retakes,
-        cover_pushes,
-        resting_speed,
-        sleep,
-        sleep_speed,
-        sleep_time,
     })
 }
 
