@@ -343,17 +343,17 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     let wraps = periodic.iter().any(|&a| a);
 
     let (broad_phase, grid_cells) = sections::broad_phase::<V>(ctx, &raw, walls.is_some(), wraps)?;
-    let sections::SolverSettings {
-        velocity_iterations,
-        position_iterations,
-        substeps,
-        retakes,
-        cover_pushes,
-        resting_speed,
-        sleep,
-        sleep_speed,
-        sleep_time,
-    } = sections::solver(ctx, &raw)?;
+    let mut config = WorldConfig {
+        dt,
+        gravity,
+        restitution,
+        domain,
+        periodic,
+        broad_phase,
+        grid_cells,
+        ..WorldConfig::default()
+    };
+    sections::apply_solver(ctx, &raw, &mut config)?;
     let planes = planes::<V>(ctx, &raw, restitution)?;
 
     let wrap = domain.and_then(|d| Periodic::new(&d, &periodic));
@@ -369,24 +369,7 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
         name: raw.name,
         description: raw.description,
         steps,
-        config: WorldConfig {
-            dt,
-            gravity,
-            restitution,
-            velocity_iterations,
-            position_iterations,
-            substeps,
-            retakes,
-            cover_pushes,
-            domain,
-            periodic,
-            broad_phase,
-            grid_cells,
-            resting_speed,
-            sleep,
-            sleep_speed,
-            sleep_time,
-        },
+        config,
         walls,
         planes,
         particles,

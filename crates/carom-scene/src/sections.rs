@@ -4,10 +4,8 @@
 use crate::raw::{RawBroadPhaseKind, RawScene};
 use crate::{Ctx, SceneError};
 use carom_engine::grid::MAX_CELLS;
-use carom_engine::world::{
-    DEFAULT_POSITION_ITERATIONS, DEFAULT_RETAKES, DEFAULT_SUBSTEPS, DEFAULT_VELOCITY_ITERATIONS,
-};
-use carom_engine::{BroadPhaseKind, Vector};
+use carom_engine::{BroadPhaseKind, Vector, WorldConfig};
+use std::ops::RangeInclusive;
 
 /// `[broadphase]`: the kind (by default the grid when `walls` close the domain or it `wraps`,
 /// else the unbounded hash) and the grid's cells, if given.
@@ -80,87 +78,58 @@ pub(crate) fn broad_phase<V: Vector>(
 /// The most `[solver] retakes` a scene may ask for: each costs up to a step again.
 const MOST_RETAKES: i64 = 8;
 
-/// `[solver]`, checked, with the defaults filled in.
-pub(crate) struct SolverSettings {
-    pub velocity_iterations: u32,
-    pub position_iterations: u32,
-    pub substeps: u32,
-    pub retakes: u32,
-    pub cover_pushes: bool,
-    pub resting_speed: Option<f64>,
-    pub sleep: bool,
-    pub sleep_speed: Option<f64>,
-    pub sleep_time: f64,
-}
-
-/// `[solver]`, checked.
-pub(crate) fn solver(ctx: &Ctx, raw: &RawScene) -> Result<SolverSettings, SceneError> {
-    let (mut velocity_iterations, mut position_iterations, mut substeps) = (
-        DEFAULT_VELOCITY_ITERATIONS,
-        DEFAULT_POSITION_ITERATIONS,
-        DEFAULT_SUBSTEPS,
-    );
-    let mut retakes = DEFAULT_RETAKES;
-    if let Some(s) = &raw.solver {
-        if let Some(n) = s.substeps {
-            if !(1..=1000).contains(&n) {
-                return Err(ctx.err("solver.substeps", format!("must be in 1..=1000, got {n}")));
+/// `[solver]`, checked, onto `config` (whose solver fields hold the engine's defaults): each
+/// field the section gives replaces its default.
+pub(crate) fn apply_solver<V: Vector>(
+    ctx: &Ctx,
+    raw: &RawScene,
+    config: &mut WorldConfig<V>,
+) -> Result<(), SceneError> {
+    let Some(s) = &raw.solver else {
+        return Ok(());
+    };
+    let count =
+        |field: &str, value: Option<i64>, range: RangeInclusive<i64>, into: &mut u32| match value {
+            Some(n) if !range.contains(&n) => Err(ctx.err(
+                format!("solver.{field}"),
+                format!("must be in {}..={}, got {n}", range.start(), range.end()),
+            )),
+            Some(n) => {
+                *into = n as u32;
+                Ok(())
             }
-            substeps = n as u32;
-        }
-        if let Some(n) = s.retakes {
-            if !(0..=MOST_RETAKES).contains(&n) {
-                let range = format!("must be in 0..={MOST_RETAKES}, got {n}");
-                return Err(ctx.err("solver.retakes", range));
-            }
-            retakes = n as u32;
-        }
-        if let Some(v) = s.velocity_iterations {
-            if !(1..=1_000_000).contains(&v) {
-                return Err(ctx.err(
-                    "solver.velocity_iterations",
-                    format!("must be in 1..=1000000, got {v}"),
-                ));
-            }
-            velocity_iterations = v as u32;
-        }
-        if let Some(p) = s.position_iterations {
-            if !(0..=1_000_000).contains(&p) {
-                return Err(ctx.err(
-                    "solver.position_iterations",
-                    format!("must be in 0..=1000000, got {p}"),
-                ));
-            }
-            position_iterations = p as u32;
-        }
+            None => Ok(()),
+        };
+    count("substeps", s.substeps, 1..=1000, &mut config.substeps)?;
+    count("retakes", s.retakes, 0..=MOST_RETAKES, &mut config.retakes)?;
+    let iterations = s.velocity_iterations;
+    count(
+        "velocity_iterations",
+        iterations,
+        1..=1_000_000,
+        &mut config.velocity_iterations,
+    )?;
+    let iterations = s.position_iterations;
+    count(
+        "position_iterations",
+        iterations,
+        0..=1_000_000,
+        &mut config.position_iterations,
+    )?;
+    if let Some(v) = s.resting_speed {
+        config.resting_speed = Some(ctx.non_negative("solver.resting_speed", v)?);
     }
-
-    let resting_speed = match raw.solver.as_ref().and_then(|s| s.resting_speed) {
-        Some(v) => Some(ctx.non_negative("solver.resting_speed", v)?),
-        None => None,
-    };
-
-    let solver = raw.solver.as_ref();
-    let cover_pushes = solver.and_then(|s| s.cover_pushes).unwrap_or(false);
-    let sleep = solver.and_then(|s| s.sleep).unwrap_or(true);
-    let sleep_speed = match solver.and_then(|s| s.sleep_speed) {
-        Some(v) => Some(ctx.positive("solver.sleep_speed", v)?),
-        None => None,
-    };
-    let sleep_time = match solver.and_then(|s| s.sleep_time) {
-        Some(v) => ctx.positive("solver.sleep_time", v)?,
-        None => carom_engine::sleep::DEFAULT_SLEEP_TIME,
-    };
-
-    Ok(SolverSettings {
-        velocity_iterations,
-        position_iterations,
-        substeps,
-        retakes,
-        cover_pushes,
-        resting_speed,
-        sleep,
-        sleep_speed,
-        sleep_time,
-    })
+    if let Some(cover_pushes) = s.cover_pushes {
+        config.cover_pushes = cover_pushes;
+    }
+    if let Some(sleep) = s.sleep {
+        config.sleep = sleep;
+    }
+    if let Some(v) = s.sleep_speed {
+        config.sleep_speed = Some(ctx.positive("solver.sleep_speed", v)?);
+    }
+    if let Some(v) = s.sleep_time {
+        config.sleep_time = ctx.positive("solver.sleep_time", v)?;
+    }
+    Ok(())
 }

@@ -170,7 +170,7 @@ impl<V: Vector> Grid<V> {
             wraps: [0, 1, 2].map(|a| self.periodic.is_some_and(|p| p.is_periodic(a))),
             cell_start: &self.cell_start,
         };
-        let ids = &self.ids;
+        let (ids, cell_start) = (&self.ids, &self.cell_start);
         let seam = after.wraps[0];
         let work = |(task, out): (usize, &mut Vec<Pair>)| {
             out.clear();
@@ -181,7 +181,8 @@ impl<V: Vector> Grid<V> {
                 let row_count = after.rows_after(z, y, &mut rows_after);
                 let rows_after = &rows_after[..row_count];
                 for x in 0..width {
-                    let (start, end) = after.run(z, y, x, x);
+                    let cell = r * width + x;
+                    let (start, end) = (cell_start[cell] as usize, cell_start[cell + 1] as usize);
                     if start == end {
                         continue;
                     }
@@ -313,14 +314,6 @@ const MOST_RUNS: usize = MOST_CELLS_APART * (2 * MOST_CELLS_APART + 2);
 const FEWEST_CELLS_INSIDE: usize = 6;
 
 impl Forward<'_> {
-    /// The particles of cells `first..=last` of row `y` of layer `z`, as a run.
-    #[inline]
-    fn run(&self, z: usize, y: usize, first: usize, last: usize) -> (usize, usize) {
-        let row = (z * self.cells[1] + y) * self.cells[0];
-        let start = self.cell_start[row + first] as usize;
-        (start, self.cell_start[row + last + 1] as usize)
-    }
-
     /// True unless every pair that cell `x` of row `y` of layer `z` tests lies within two
     /// cells of each other on every axis that wraps, without a wrap between them, so that its
     /// image nearest either is the other itself: the cell is at least one cell from either
