@@ -19,8 +19,12 @@ pub(crate) fn counting_sort(
     for &k in keys {
         starts[k as usize + 1] += 1;
     }
-    for c in 0..buckets {
-        starts[c + 1] += starts[c];
+    // (the sum kept in a register: read back from the cell before, each add waited on the
+    // store before it)
+    let mut sum = 0;
+    for start in starts.iter_mut() {
+        sum += *start;
+        *start = sum;
     }
     // Scatter with `starts[c]` as the cursor; afterwards it holds the end of cell c, which is
     // the start of cell c + 1, so shifting by one restores the starts.
