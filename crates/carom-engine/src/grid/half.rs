@@ -33,7 +33,7 @@
 //! one, the sort of its pairs included.)
 
 use super::{scan_run, Grid, GridLayout};
-use crate::broadphase::{gather, keep_headroom, keep_tail, Pair, PairFilter, PARALLEL_SEARCH_MIN};
+use crate::broadphase::{gather, keep_headroom, Pair, PairFilter, PARALLEL_SEARCH_MIN};
 use crate::bucket::sort_pairs_by_counting;
 use crate::response::is_overlapping;
 use crate::vector::Vector;
@@ -207,18 +207,11 @@ impl<V: Vector> Grid<V> {
                     let runs = &runs[..count];
                     match across {
                         Some(across) if after.at_seam(z, y, x) => {
-                            scan_cell(ids, (start, end, own_end), runs, out, across);
+                            scan_cell(ids, (start, end, own_end), runs, keep, out, across);
                         }
-                        _ => scan_cell(ids, (start, end, own_end), runs, out, &overlaps),
+                        _ => scan_cell(ids, (start, end, own_end), runs, keep, out, &overlaps),
                     }
                 }
-            }
-            // (`keep` over the task's pairs once its walk is done, not as each is found: its
-            // loads of the partners' velocities, which the walk does not read, then wait on
-            // memory side by side instead of one at a time between the walk's branches; the
-            // search of issue 14's gas took 0.97x as long)
-            if let Some(keep) = keep {
-                keep_tail(out, 0, keep);
             }
             keep_headroom(out);
         };
@@ -259,19 +252,25 @@ impl<V: Vector> Grid<V> {
 
 /// The walk's scan from one cell (see [`Grid::walk_cells`]): each of its particles,
 /// `ids[start..end]`, against the particles after it in its own run (to `own_end`) and in
-/// `runs`, with the pair test `overlaps`; pushes the pairs found.
+/// `runs`, with the pair test `overlaps`; pushes the pairs found that `keep` holds for, if any.
 #[inline(always)]
 fn scan_cell(
     ids: &[u32],
     (start, end, own_end): (usize, usize, usize),
     runs: &[(usize, usize)],
+    keep: Option<&PairFilter<'_>>,
     out: &mut Vec<Pair>,
     overlaps: &(impl Fn(usize, usize) -> bool + ?Sized),
 ) {
     for k in start..end {
         let i = ids[k] as usize;
         let test = |j: usize| overlaps(i, j);
-        let mut hit = |j: usize| out.push((i.min(j) as u32, i.max(j) as u32));
+        let mut hit = |j: usize| {
+            let pair = (i.min(j) as u32, i.max(j) as u32);
+            if keep.is_none_or(|keep| keep(pair)) {
+                out.push(pair);
+            }
+        };
         scan_run(ids, k + 1, own_end, &test, &mut hit);
         for &(first, last) in runs {
             scan_run(ids, first, last, &test, &mut hit);
