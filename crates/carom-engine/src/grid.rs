@@ -147,10 +147,11 @@ impl GridLayout {
     #[inline]
     pub fn axis_cell(&self, axis: usize, coordinate: f64) -> usize {
         let t = (coordinate - self.origin[axis]) * self.inverse_cell_size[axis];
-        // Round down: for t >= 0 truncation is floor, and anything below 0 clamps to cell 0
-        // anyway. `as i64` saturates (NaN becomes 0) and is cheaper than `as usize`; the clamp
-        // is then integer work. No libm call in the hot loop.
-        (t as i64).clamp(0, self.cells[axis] as i64 - 1) as usize
+        let last = (self.cells[axis] - 1) as f64;
+        // Clamped as a float, then truncated (for t >= 0 truncation is floor): the cell that
+        // truncating and then clamping the integer gives, for every input (`max` passes over
+        // a NaN, which so goes to cell 0). No libm call in the hot loop.
+        t.max(0.0).min(last) as usize
     }
 
     /// The cells on `axis` that can hold a particle within `reach` of `coordinate`, inclusive.

@@ -126,3 +126,30 @@ fn a_search_in_lent_arrays_finds_the_same_pairs() {
     assert_eq!(own, 0);
     assert_eq!(scratch.keys.len(), pos.len());
 }
+
+proptest::proptest! {
+    /// A coordinate's cell is its cell index truncated and then clamped to the axis, whatever
+    /// the coordinate: beyond either end, infinite or NaN (which goes to cell 0). (The clamp
+    /// is taken on the float, before the truncation, which costs less.)
+    #[test]
+    fn a_coordinate_goes_to_its_truncated_cell_clamped_to_the_axis(
+        coordinate in proptest::prop_oneof![
+            -1e3f64..1e3,
+            proptest::num::f64::ANY,
+            proptest::sample::select(vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -0.0, 0.0]),
+        ],
+        origin in -50.0f64..50.0,
+        size in 0.01f64..10.0,
+        cells in 1usize..5000,
+    ) {
+        let layout = GridLayout {
+            origin: [origin; 3],
+            cell_size: [size; 3],
+            inverse_cell_size: [1.0 / size; 3],
+            cells: [cells; 3],
+        };
+        let t = (coordinate - origin) * (1.0 / size);
+        let truncated_then_clamped = (t as i64).clamp(0, cells as i64 - 1) as usize;
+        proptest::prop_assert_eq!(layout.axis_cell(0, coordinate), truncated_then_clamped);
+    }
+}
