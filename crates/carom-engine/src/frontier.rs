@@ -238,7 +238,7 @@ impl BlockIndex {
     /// `base..end`: those whose `j` lies in it.
     ///
     /// (Its passes over the slots are most of its time in a gas, with 0.1 contacts a
-    /// particle: two here, the running sum kept in a register. Three, each sum read back
+    /// particle: two here (see [`crate::bucket::running_sums`]). Three, each sum read back
     /// from the slot before, took 3.3 ms a step in issue 14's gas of 10^6 discs; these
     /// take 0.8.)
     fn build(&mut self, mine: &[Pair], first: usize, base: usize, end: usize) {
@@ -263,11 +263,7 @@ impl BlockIndex {
             start[i] += 1;
             start[j] += 1;
         }
-        let mut sum = 0;
-        for count in start.iter_mut() {
-            sum += *count;
-            *count = sum;
-        }
+        let sum = crate::bucket::running_sums(start);
         self.list.clear();
         self.list.resize(sum as usize, 0);
         for (k, pair) in mine.iter().enumerate().rev() {
