@@ -18,6 +18,7 @@
 //! radii (its radius 1 and 3 demo) widen the search instead of missing contacts.
 
 mod half;
+mod packed;
 mod periodic;
 mod raised;
 mod sizes;
@@ -51,6 +52,8 @@ pub struct Grid<V> {
     /// Scratch of the parallel counting sort.
     run_totals: Vec<u32>,
     buffers: Vec<Vec<Pair>>,
+    /// The walk's copy of the positions and reaches in cell order (see [`packed`]).
+    packed: packed::Packed,
     /// The pairs raised radii add (see [`raised`]).
     raised_extra: Vec<Pair>,
     overflow: SpatialHash,
@@ -209,6 +212,7 @@ impl<V: Vector> Grid<V> {
             ids: Vec::new(),
             run_totals: Vec::new(),
             buffers: Vec::new(),
+            packed: packed::Packed::default(),
             raised_extra: Vec::new(),
             overflow: SpatialHash::new(),
             escaped: false,

@@ -26,12 +26,19 @@
 //! other search tests it. The resting step's first search, whose radii are then raised to the
 //! partners' speeds, is this search too (see [`super::raised`]).
 //!
+//! Without periodic axes or particles passed over, the walk goes particle by particle along
+//! the cell order instead of cell by cell (no branch on each cell's count, which went either
+//! way), and tests candidates eight at a time through a packed copy of the positions and
+//! reaches, then in `f64` only those that pass (see [`super::packed`]; the same pairs). The
+//! bench's 10^6-disc gas, 2 threads: the search 26.4 -> 22.6 ms a step.
+//!
 //! The pairs come out grouped by cell, not by particle, so they are sorted at the end: the set
 //! is exact and its order canonical (see [`crate::broadphase`]), so the solver sees the same
 //! contacts as from the search by particle, and every run the same bits. (The bench's 10^6-disc
 //! gas, 2 threads: the broad phase took 41 ms a step with the search by particle, 30 with this
 //! one, the sort of its pairs included.)
 
+use super::packed::{Packed, LANES};
 use super::{scan_run, Grid, GridLayout};
 use crate::broadphase::{gather, keep_headroom, Pair, PairFilter, PARALLEL_SEARCH_MIN};
 use crate::bucket::sort_pairs_by_counting;
@@ -108,34 +115,28 @@ impl<V: Vector> Grid<V> {
     ) {
         let overlaps =
             |i: usize, j: usize| is_overlapping(positions[i], positions[j], radii[i], radii[j]);
-        match self.periodic {
-            None => self.walk_cells(positions, max_radius, keep, &[], pairs, overlaps, None),
-            // (at the minimum image as the lower particle sees it, as every other search
-            // tests a pair: the image is rounded differently from the other side; away from
-            // the seams that image is the partner itself, and the test `overlaps`, bit for bit)
-            Some(periodic) => {
-                let across = |i: usize, j: usize| {
-                    let (low, high) = (i.min(j), i.max(j));
-                    let image = periodic.image(positions[low], positions[high]);
-                    is_overlapping(positions[low], image, radii[low], radii[high])
-                };
-                self.walk_cells(
-                    positions,
-                    max_radius,
-                    keep,
-                    &[],
-                    pairs,
-                    overlaps,
-                    Some(&across),
-                );
-            }
-        }
+        // (at the minimum image as the lower particle sees it, as every other search tests a
+        // pair: the image is rounded differently from the other side; away from the seams
+        // that image is the partner itself, and the test `overlaps`, bit for bit)
+        let periodic = self.periodic;
+        let across = |i: usize, j: usize| {
+            let (low, high) = (i.min(j), i.max(j));
+            let image = periodic.map_or(positions[high], |p| {
+                p.image(positions[low], positions[high])
+            });
+            is_overlapping(positions[low], image, radii[low], radii[high])
+        };
+        let across = periodic
+            .is_some()
+            .then_some(&across as &(dyn Fn(usize, usize) -> bool + Sync));
+        let particles = (positions, radii);
+        self.walk_cells(particles, max_radius, keep, &[], pairs, overlaps, across);
     }
 
-    /// The walk of [`Grid::search_from_one_side`] over partners of radius at most `max_radius`
-    /// (so up to [`GridLayout::cells_apart`] cells apart), with `overlaps(i, j)` the pair
-    /// test. A
-    /// cell whose particles and those of the cells after it are all `still` (per particle;
+    /// The walk of [`Grid::search_from_one_side`] over partners of radius (`radii`) at most
+    /// `max_radius` (so up to [`GridLayout::cells_apart`] cells apart), with `overlaps(i, j)`
+    /// the pair test, which must imply that the two lie within `r_i + r_j` (the packed copy's
+    /// prefilter turns away only pairs that do not, see [`super::packed`]). A cell whose particles and those of the cells after it are all `still` (per particle;
     /// empty when none is) is passed over: `keep` must then drop every pair of two still
     /// particles, which the caller takes from elsewhere (see [`crate::broadphase::Still`]).
     ///
@@ -147,7 +148,7 @@ impl<V: Vector> Grid<V> {
     #[allow(clippy::too_many_arguments)]
     pub(super) fn walk_cells(
         &mut self,
-        positions: &[V],
+        (positions, radii): (&[V], &[f64]),
         max_radius: f64,
         keep: Option<&PairFilter<'_>>,
         still: &[bool],
@@ -170,6 +171,21 @@ impl<V: Vector> Grid<V> {
             wraps: [0, 1, 2].map(|a| self.periodic.is_some_and(|p| p.is_periodic(a))),
             cell_start: &self.cell_start,
         };
+        let parallel = positions.len() >= PARALLEL_SEARCH_MIN;
+        // Particle by particle along the cell order, through the packed copy, without a branch
+        // on each cell's count; unless some cells are passed over or rows wrap. (The cells of
+        // each particle are not read after the counting sort: their array holds the copy.)
+        let mut planar = std::mem::take(&mut self.cell_of);
+        let streamed = still.is_empty()
+            && !after.wraps.contains(&true)
+            && (self.packed).fill(
+                (positions, radii, max_radius),
+                &self.ids,
+                &layout,
+                &mut planar,
+                parallel,
+            );
+        let streamed = streamed.then_some((&self.packed, &planar[..]));
         let (ids, cell_start) = (&self.ids, &self.cell_start);
         let seam = after.wraps[0];
         let work = |(task, out): (usize, &mut Vec<Pair>)| {
@@ -180,6 +196,22 @@ impl<V: Vector> Grid<V> {
                 let mut rows_after = [0; MOST_RUNS];
                 let row_count = after.rows_after(z, y, &mut rows_after);
                 let rows_after = &rows_after[..row_count];
+                if let Some((packed, planar)) = streamed {
+                    let row = r * width;
+                    let (first, last) =
+                        (cell_start[row] as usize, cell_start[row + width] as usize);
+                    let probes = (packed, planar, &ids[..], &cell_start[..]);
+                    scan_row::<V>(
+                        probes,
+                        (row, first..last),
+                        rows_after,
+                        &after,
+                        keep,
+                        out,
+                        &overlaps,
+                    );
+                    continue;
+                }
                 for x in 0..width {
                     let cell = r * width + x;
                     let (start, end) = (cell_start[cell] as usize, cell_start[cell + 1] as usize);
@@ -205,23 +237,24 @@ impl<V: Vector> Grid<V> {
                         }
                     }
                     let runs = &runs[..count];
+                    let cell = (start, end, own_end);
                     match across {
                         Some(across) if after.at_seam(z, y, x) => {
-                            scan_cell(ids, (start, end, own_end), runs, keep, out, across);
+                            scan_cell(ids, cell, runs, keep, out, across);
                         }
-                        _ => scan_cell(ids, (start, end, own_end), runs, keep, out, &overlaps),
+                        _ => scan_cell(ids, cell, runs, keep, out, &overlaps),
                     }
                 }
             }
             keep_headroom(out);
         };
-        let parallel = positions.len() >= PARALLEL_SEARCH_MIN;
         let buffers = &mut self.buffers[..tasks];
         if parallel {
             buffers.par_iter_mut().enumerate().for_each(work);
         } else {
             buffers.iter_mut().enumerate().for_each(work);
         }
+        self.cell_of = planar;
         self.sort_walked_pairs(tasks, positions.len(), parallel, pairs);
     }
 
@@ -274,6 +307,49 @@ fn scan_cell(
         scan_run(ids, k + 1, own_end, &test, &mut hit);
         for &(first, last) in runs {
             scan_run(ids, first, last, &test, &mut hit);
+        }
+    }
+}
+
+/// The walk from one side for the particles at places `places` of the cell order, the row
+/// of cells that starts at cell `row` (see [`Grid::walk_cells`]), through `packed`'s prefilter
+/// (its coordinates `x` and `y` in `planar`): each particle against the places after it in
+/// its row up to the end of the cells its reach and the largest can span (see
+/// [`Packed::cells_around`]), and against those cells in each of `rows_after` (see
+/// [`Forward::rows_after`]), each a run of places. No wraps.
+#[inline(always)]
+fn scan_row<V: Vector>(
+    (packed, planar, ids, cell_start): (&Packed, &[u32], &[u32], &[u32]),
+    (row, places): (usize, std::ops::Range<usize>),
+    rows_after: &[usize],
+    after: &Forward<'_>,
+    keep: Option<&PairFilter<'_>>,
+    out: &mut Vec<Pair>,
+    overlaps: &(impl Fn(usize, usize) -> bool + ?Sized),
+) {
+    let last_x = after.cells[0] - 1;
+    for group in places.clone().step_by(LANES) {
+        let (firsts, lasts) = packed.cells_around(planar, group, last_x);
+        for (l, k) in (group..places.end.min(group + LANES)).enumerate() {
+            let (first_x, end_x) = (firsts[l] as usize, lasts[l] as usize + 1);
+            let probe = packed.probe::<V>(planar, k);
+            let i = ids[k] as usize;
+            let mut candidate = |place: usize| {
+                let j = ids[place] as usize;
+                if overlaps(i, j) {
+                    let pair = (i.min(j) as u32, i.max(j) as u32);
+                    if keep.is_none_or(|keep| keep(pair)) {
+                        out.push(pair);
+                    }
+                }
+            };
+            let own = (k + 1, cell_start[row + end_x] as usize);
+            packed.scan::<V>(planar, probe, own, &mut candidate);
+            for &base in rows_after {
+                let run = (cell_start[base + first_x], cell_start[base + end_x]);
+                let run = (run.0 as usize, run.1 as usize);
+                packed.scan::<V>(planar, probe, run, &mut candidate);
+            }
         }
     }
 }

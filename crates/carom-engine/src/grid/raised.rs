@@ -50,7 +50,7 @@ impl<V: Vector> Grid<V> {
             } else {
                 let keep = |pair: Pair| !still.both(pair);
                 self.walk_cells(
-                    positions,
+                    (positions, radii),
                     max_radius,
                     Some(&keep),
                     still.flags,

@@ -57,7 +57,7 @@ impl<V: Vector> Grid<V> {
     ) {
         let is_small = |i: usize| radii[i] <= small;
         self.walk_cells(
-            positions,
+            (positions, radii),
             small,
             keep,
             &[],
