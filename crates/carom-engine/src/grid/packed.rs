@@ -154,9 +154,12 @@ impl Packed {
         self.step = step as f32;
         self.units_per_length = (UNITS / extent(0)) as f32;
         self.cells_per_unit = (extent(0) / UNITS / layout.cell_size[0]) as f32;
+        // (from the largest radius there is, which may be over `max_radius`: the search by
+        // sizes walks the small, and a large one a little over them still fits a byte)
+        let widest = largest.max(max_radius);
         self.margin = (1.01 * root_dim * largest_unit
-            + 32.0 * u * (4.0 * max_radius + root_dim * largest_unit)) as f32;
-        self.widest = self.margin + (max_radius + 2.0 * extent(0) / UNITS) as f32;
+            + 32.0 * u * (4.0 * widest + root_dim * largest_unit)) as f32;
+        self.widest = self.margin + (widest + 2.0 * extent(0) / UNITS) as f32;
         // (a negative radius would make `r_i + r_j` smaller in magnitude with the margin; a
         // radius over `max_radius` would take more steps than a byte holds)
         let fits = if step > 0.0 {

@@ -76,6 +76,7 @@ pub(crate) use rows::{
     PlaneRow, Row, RowRecord, Rows, RowsMut, WorkList,
 };
 pub(crate) use settings::{
-    plane_reach, raise_to_partners, reach, reach_at, reach_covers_pushes, LectureCandidates,
+    plane_reach, raise_to_partners, reach, reach_at, reach_covers_pushes, reaches_of,
+    LectureCandidates,
 };
 pub(crate) use velocity::integrate;

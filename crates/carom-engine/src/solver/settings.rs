@@ -2,6 +2,7 @@
 
 use crate::plane::Plane;
 use crate::vector::Vector;
+use wide::f64x4;
 
 /// With the lecture's rule alone, the position phase leaves overlapping pairs this fraction of
 /// the smaller radius deep, so a contact is still detected (`distance < r1 + r2`) on the next
@@ -40,6 +41,55 @@ pub(crate) fn reach(radius: f64, speed: f64, dt: f64) -> f64 {
 pub(crate) fn reach_at<V: Vector>(v: V, radius: f64, fall: f64, dt: f64) -> (f64, f64, f64) {
     let speed = v.length_squared().sqrt();
     (reach(radius, speed + fall, dt), speed, speed * dt / radius)
+}
+
+/// [`reach_at`] for each particle of a run (`velocity`, `radius`), into `reach` and, when
+/// given, `speed`; returns the largest move in radii (0 when there is none). Four particles at
+/// a time: a square root and a division a particle, one by one, took about 1.7 ms of a step of
+/// 10^6 discs on 2 threads. The same bits as [`reach_at`]: each lane takes the same operations
+/// in the same order (the square root and the division are correctly rounded either way, and
+/// the lanes' `min` and `max` pass over a NaN as `f64`'s do; a property test holds them).
+pub(crate) fn reaches_of<V: Vector>(
+    (velocity, radius): (&[V], &[f64]),
+    (fall, dt): (f64, f64),
+    reach: &mut [f64],
+    mut speed: Option<&mut [f64]>,
+) -> f64 {
+    const WIDTH: usize = 4;
+    let whole = reach.len() - reach.len() % WIDTH;
+    let (slop, fall_lanes, dt_lanes) = (
+        f64x4::splat(SLOP_FRACTION),
+        f64x4::splat(fall),
+        f64x4::splat(dt),
+    );
+    let mut fastest = f64x4::splat(0.0);
+    for k in (0..whole).step_by(WIDTH) {
+        let along = |a: usize| f64x4::new(std::array::from_fn(|l| velocity[k + l].get(a)));
+        let (vx, vy) = (along(0), along(1));
+        let mut squared = vx * vx + vy * vy;
+        if V::DIM == 3 {
+            let vz = along(2);
+            squared += vz * vz;
+        }
+        let s = squared.sqrt();
+        let r = f64x4::new(radius[k..k + WIDTH].try_into().expect("a whole group"));
+        let out = (r + slop * r) + ((s + fall_lanes) * dt_lanes).min(r);
+        reach[k..k + WIDTH].copy_from_slice(&out.to_array());
+        if let Some(speed) = speed.as_deref_mut() {
+            speed[k..k + WIDTH].copy_from_slice(&s.to_array());
+        }
+        fastest = fastest.max(s * dt_lanes / r);
+    }
+    let mut largest = fastest.to_array().into_iter().fold(0.0, f64::max);
+    for k in whole..reach.len() {
+        let moves;
+        (reach[k], _, moves) = reach_at(velocity[k], radius[k], fall, dt);
+        if let Some(speed) = speed.as_deref_mut() {
+            speed[k] = velocity[k].length_squared().sqrt();
+        }
+        largest = largest.max(moves);
+    }
+    largest
 }
 
 /// Raises `reach[i]` (see [`reach`]) to what particle `i` would reach at the speed of each of
@@ -253,7 +303,53 @@ pub struct VelocitySolve {
 mod tests {
     use super::close_in_lines;
     use super::SLOP_FRACTION;
-    use glam::DVec2;
+    use super::{reach_at, reaches_of};
+    use crate::vector::Vector;
+    use glam::{DVec2, DVec3};
+
+    /// [`reaches_of`] against [`reach_at`] particle by particle: reaches, speeds and the
+    /// fastest move bit for bit.
+    fn lanes_match_one_by_one<V: Vector>(velocity: &[V], radius: &[f64], fall: f64, dt: f64) {
+        let n = velocity.len();
+        let (mut reach, mut speed) = (vec![0.0; n], vec![0.0; n]);
+        let fastest = reaches_of((velocity, radius), (fall, dt), &mut reach, Some(&mut speed));
+        let mut expected = 0.0f64;
+        for k in 0..n {
+            let (r, s, moves) = reach_at(velocity[k], radius[k], fall, dt);
+            assert_eq!(
+                (reach[k].to_bits(), speed[k].to_bits()),
+                (r.to_bits(), s.to_bits())
+            );
+            expected = expected.max(moves);
+        }
+        assert_eq!(fastest.to_bits(), expected.to_bits());
+        let mut alone = vec![0.0; n];
+        let without = reaches_of((velocity, radius), (fall, dt), &mut alone, None);
+        assert_eq!((alone, without.to_bits()), (reach, fastest.to_bits()));
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn reaches_four_at_a_time_are_reaches_one_at_a_time(
+            particles in proptest::collection::vec(
+                (proptest::array::uniform3(-1e3f64..1e3), 1e-3f64..10.0), 0..23),
+            still in proptest::collection::vec(proptest::bool::ANY, 23),
+            fall in proptest::sample::select(vec![0.0, 0.1635, 1e3]),
+            dt in proptest::sample::select(vec![1.0 / 60.0, 1e-4, 0.5]),
+        ) {
+            // (some at rest: a speed of exactly zero)
+            let at = |k: usize, v: [f64; 3]| if still[k] { [0.0; 3] } else { v };
+            let radius: Vec<f64> = particles.iter().map(|p| p.1).collect();
+            let flat: Vec<DVec2> = (particles.iter().enumerate())
+                .map(|(k, p)| DVec2::from_slice(&at(k, p.0)))
+                .collect();
+            lanes_match_one_by_one(&flat, &radius, fall, dt);
+            let solid: Vec<DVec3> = (particles.iter().enumerate())
+                .map(|(k, p)| DVec3::from(at(k, p.0)))
+                .collect();
+            lanes_match_one_by_one(&solid, &radius, fall, dt);
+        }
+    }
 
     /// [`close_in_lines`] with a branch per case, as it was first written.
     fn close_in_lines_by_cases(dx: DVec2, dv: DVec2, sum_radii: f64, dt: f64) -> bool {

@@ -345,39 +345,27 @@ impl<V: Vector> World<V> {
         let p = &self.store;
         self.reach.resize(p.len(), 0.0);
         self.speed.resize(if raises { p.len() } else { 0 }, 0.0);
-        // (each particle's reach, its speed and its move in radii: see `StepStats::fastest_move`)
-        let one = |v: &V, r: f64| solver::reach_at(*v, r, fall, dt);
-        let particles = || p.velocity.par_iter().zip(p.radius.par_iter());
         // (the speeds, when the search raises reaches, in the same pass: a square root per
-        // particle instead of one per partner the search finds, through a closure)
+        // particle instead of one per partner the search finds)
+        let steps = (fall, dt);
+        let (reach, speed) = (&mut self.reach[..], &mut self.speed[..]);
+        if !parallel {
+            let speed = raises.then_some(speed);
+            return solver::reaches_of((&p.velocity, &p.radius), steps, reach, speed);
+        }
+        let particles =
+            (p.velocity.par_chunks(INTEGRATE_CHUNK)).zip(p.radius.par_chunks(INTEGRATE_CHUNK));
+        let reaches = reach.par_chunks_mut(INTEGRATE_CHUNK);
         if raises {
-            let fill = |((out, speed), (v, &r)): ((&mut f64, &mut f64), (&V, &f64))| {
-                let moves;
-                (*out, *speed, moves) = one(v, r);
-                moves
-            };
-            if parallel {
-                let outs = self.reach.par_iter_mut().zip(self.speed.par_iter_mut());
-                outs.zip(particles()).map(fill).reduce(|| 0.0, f64::max)
-            } else {
-                let outs = self.reach.iter_mut().zip(self.speed.iter_mut());
-                let each = outs.zip(p.velocity.iter().zip(&p.radius)).map(fill);
-                each.fold(0.0, f64::max)
-            }
+            let outs = reaches.zip(speed.par_chunks_mut(INTEGRATE_CHUNK));
+            outs.zip(particles)
+                .map(|((reach, speed), run)| solver::reaches_of(run, steps, reach, Some(speed)))
+                .reduce(|| 0.0, f64::max)
         } else {
-            let fill = |(out, (v, &r)): (&mut f64, (&V, &f64))| {
-                let moves;
-                (*out, _, moves) = one(v, r);
-                moves
-            };
-            if parallel {
-                let each = self.reach.par_iter_mut().zip(particles()).map(fill);
-                each.reduce(|| 0.0, f64::max)
-            } else {
-                let outs = self.reach.iter_mut();
-                let each = outs.zip(p.velocity.iter().zip(&p.radius)).map(fill);
-                each.fold(0.0, f64::max)
-            }
+            reaches
+                .zip(particles)
+                .map(|(reach, run)| solver::reaches_of(run, steps, reach, None))
+                .reduce(|| 0.0, f64::max)
         }
     }
 
