@@ -126,9 +126,7 @@ impl<V: Vector> Grid<V> {
             });
             is_overlapping(positions[low], image, radii[low], radii[high])
         };
-        let across = periodic
-            .is_some()
-            .then_some(&across as &(dyn Fn(usize, usize) -> bool + Sync));
+        let across = periodic.is_some().then_some(&across as SeamTest<'_>);
         let particles = (positions, radii);
         self.walk_cells(particles, max_radius, keep, &[], pairs, overlaps, across);
     }
@@ -154,7 +152,7 @@ impl<V: Vector> Grid<V> {
         still: &[bool],
         pairs: &mut Vec<Pair>,
         overlaps: impl Fn(usize, usize) -> bool + Sync,
-        across: Option<&(dyn Fn(usize, usize) -> bool + Sync)>,
+        across: Option<SeamTest<'_>>,
     ) {
         let layout = self.layout;
         let apart = layout.cells_apart::<V>(max_radius);
@@ -187,12 +185,10 @@ impl<V: Vector> Grid<V> {
             );
         let streamed = streamed.then_some((&self.packed, &planar[..]));
         let (ids, cell_start) = (&self.ids, &self.cell_start);
-        let seam = after.wraps[0];
         let work = |(task, out): (usize, &mut Vec<Pair>)| {
             out.clear();
             for r in task * rows_per_task..((task + 1) * rows_per_task).min(rows) {
                 let (z, y) = (r / height, r % height);
-                let mut runs = [(0, 0); MOST_RUNS];
                 let mut rows_after = [0; MOST_RUNS];
                 let row_count = after.rows_after(z, y, &mut rows_after);
                 let rows_after = &rows_after[..row_count];
@@ -217,39 +213,16 @@ impl<V: Vector> Grid<V> {
                         &overlaps,
                     );
                 }
-                for x in (0..inside.start).chain(inside.end.max(inside.start)..width) {
-                    let cell = r * width + x;
-                    let (start, end) = (cell_start[cell] as usize, cell_start[cell + 1] as usize);
-                    if start == end {
-                        continue;
-                    }
-                    // (written in place: returned by value, the runs were copied through the
-                    // stack, and the copy's wide load waited on their narrow stores)
-                    let (own_end, count) = if seam && (x == 0 || x + 1 == width) {
-                        after.runs_at_seam(r * width, x, rows_after, &mut runs)
-                    } else {
-                        (
-                            after.runs_in_rows(r * width, x, rows_after, &mut runs),
-                            row_count,
-                        )
-                    };
-                    if !still.is_empty() {
-                        let moves = |(first, last): (usize, usize)| {
-                            ids[first..last].iter().any(|&id| !still[id as usize])
-                        };
-                        if !moves((start, own_end)) && !runs[..count].iter().any(|&r| moves(r)) {
-                            continue;
-                        }
-                    }
-                    let runs = &runs[..count];
-                    let cell = (start, end, own_end);
-                    match across {
-                        Some(across) if after.at_seam(z, y, x) => {
-                            scan_cell(ids, cell, runs, keep, out, across);
-                        }
-                        _ => scan_cell(ids, cell, runs, keep, out, &overlaps),
-                    }
-                }
+                let by_cell = (0..inside.start).chain(inside.end.max(inside.start)..width);
+                let tests = (keep, &overlaps, across);
+                scan_cells(
+                    &after,
+                    (ids, still),
+                    (z, y, by_cell),
+                    rows_after,
+                    out,
+                    tests,
+                );
             }
             keep_headroom(out);
         };
@@ -284,6 +257,60 @@ impl<V: Vector> Grid<V> {
             pairs.par_sort_unstable();
         } else {
             pairs.sort_unstable();
+        }
+    }
+}
+
+/// The walk cell by cell (see [`Grid::walk_cells`]) over the cells `xs` of row `y` of layer
+/// `z`, whose rows after it are `rows_after`: each cell's particles against the runs after it
+/// (see [`Forward`]), with `across` at a seam (see [`Forward::at_seam`]) and `overlaps`
+/// elsewhere, keeping the pairs `keep` holds for; a cell is passed over when it and every run
+/// after it are `still` (per particle; empty when none is).
+#[inline(always)]
+fn scan_cells(
+    after: &Forward<'_>,
+    (ids, still): (&[u32], &[bool]),
+    (z, y, xs): (usize, usize, impl Iterator<Item = usize>),
+    rows_after: &[usize],
+    out: &mut Vec<Pair>,
+    (keep, overlaps, across): (
+        Option<&PairFilter<'_>>,
+        &(impl Fn(usize, usize) -> bool + ?Sized),
+        Option<SeamTest<'_>>,
+    ),
+) {
+    let [width, height, _] = after.cells;
+    let (row, cell_start) = ((z * height + y) * width, after.cell_start);
+    let seam = after.wraps[0];
+    let mut runs = [(0, 0); MOST_RUNS];
+    for x in xs {
+        let (start, end) = (
+            cell_start[row + x] as usize,
+            cell_start[row + x + 1] as usize,
+        );
+        if start == end {
+            continue;
+        }
+        // (written in place: returned by value, the runs were copied through the stack, and
+        // the copy's wide load waited on their narrow stores)
+        let (own_end, count) = if seam && (x == 0 || x + 1 == width) {
+            after.runs_at_seam(row, x, rows_after, &mut runs)
+        } else {
+            let own_end = after.runs_in_rows(row, x, rows_after, &mut runs);
+            (own_end, rows_after.len())
+        };
+        if !still.is_empty() {
+            let moves = |(first, last): (usize, usize)| {
+                ids[first..last].iter().any(|&id| !still[id as usize])
+            };
+            if !moves((start, own_end)) && !runs[..count].iter().any(|&r| moves(r)) {
+                continue;
+            }
+        }
+        let (runs, cell) = (&runs[..count], (start, end, own_end));
+        match across {
+            Some(across) if after.at_seam(z, y, x) => scan_cell(ids, cell, runs, keep, out, across),
+            _ => scan_cell(ids, cell, runs, keep, out, overlaps),
         }
     }
 }
@@ -359,6 +386,9 @@ fn scan_row<V: Vector>(
         }
     }
 }
+
+/// The pair test at the minimum image, taken at the periodic seams (see [`Forward::at_seam`]).
+type SeamTest<'a> = &'a (dyn Fn(usize, usize) -> bool + Sync);
 
 /// The pairs are sorted by counting (see [`sort_pairs_by_counting`]) when there are more than
 /// one per this many particles: a counting sort passes over every particle, a comparison sort
