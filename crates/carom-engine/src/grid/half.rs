@@ -27,10 +27,10 @@
 //! partners' speeds, is this search too (see [`super::raised`]).
 //!
 //! Without particles passed over, the walk goes particle by particle along the cell order
-//! (away from periodic seams) instead of cell by cell (no branch on each cell's count, which went either
-//! way), and tests candidates eight at a time through a packed copy of the positions and
-//! reaches, then in `f64` only those that pass (see [`super::packed`]; the same pairs). The
-//! bench's 10^6-disc gas, 2 threads: the search 26.4 -> 22.6 ms a step.
+//! (away from periodic seams) instead of cell by cell (no branch on each cell's count, which
+//! went either way), and tests candidates eight at a time through a packed copy of the
+//! positions and reaches, then in `f64` only those that pass (see [`super::packed`]; the same
+//! pairs). The bench's 10^6-disc gas, 2 threads: the search 26.4 -> 22.6 ms a step.
 //!
 //! The pairs come out grouped by cell, not by particle, so they are sorted at the end: the set
 //! is exact and its order canonical (see [`crate::broadphase`]), so the solver sees the same
@@ -118,15 +118,18 @@ impl<V: Vector> Grid<V> {
         // (at the minimum image as the lower particle sees it, as every other search tests a
         // pair: the image is rounded differently from the other side; away from the seams
         // that image is the partner itself, and the test `overlaps`, bit for bit)
-        let periodic = self.periodic;
-        let across = |i: usize, j: usize| {
-            let (low, high) = (i.min(j), i.max(j));
-            let image = periodic.map_or(positions[high], |p| {
-                p.image(positions[low], positions[high])
-            });
-            is_overlapping(positions[low], image, radii[low], radii[high])
+        let at_image;
+        let across = match self.periodic {
+            Some(periodic) => {
+                at_image = move |i: usize, j: usize| {
+                    let (low, high) = (i.min(j), i.max(j));
+                    let image = periodic.image(positions[low], positions[high]);
+                    is_overlapping(positions[low], image, radii[low], radii[high])
+                };
+                Some(&at_image as SeamTest<'_>)
+            }
+            None => None,
         };
-        let across = periodic.is_some().then_some(&across as SeamTest<'_>);
         let particles = (positions, radii);
         self.walk_cells(particles, max_radius, keep, &[], pairs, overlaps, across);
     }
@@ -134,9 +137,10 @@ impl<V: Vector> Grid<V> {
     /// The walk of [`Grid::search_from_one_side`] over partners of radius (`radii`) at most
     /// `max_radius` (so up to [`GridLayout::cells_apart`] cells apart), with `overlaps(i, j)`
     /// the pair test, which must imply that the two lie within `r_i + r_j` (the packed copy's
-    /// prefilter turns away only pairs that do not, see [`super::packed`]). A cell whose particles and those of the cells after it are all `still` (per particle;
-    /// empty when none is) is passed over: `keep` must then drop every pair of two still
-    /// particles, which the caller takes from elsewhere (see [`crate::broadphase::Still`]).
+    /// prefilter turns away only pairs that do not, see [`super::packed`]). A cell whose
+    /// particles and those of the cells after it are all `still` (per particle; empty when
+    /// none is) is passed over: `keep` must then drop every pair of two still particles,
+    /// which the caller takes from elsewhere (see [`crate::broadphase::Still`]).
     ///
     /// On a periodic grid, `across(i, j)` is the test at the minimum image, taken from the
     /// cells near a seam (see [`Forward::at_seam`]); elsewhere a pair's image is the partner
@@ -433,10 +437,18 @@ impl Forward<'_> {
     /// cells are then at most half a period).
     #[inline]
     fn at_seam(&self, z: usize, y: usize, x: usize) -> bool {
-        [x, y, z].into_iter().enumerate().any(|(a, c)| {
-            let n = self.cells[a];
-            self.wraps[a] && (n < FEWEST_CELLS_INSIDE || c == 0 || c + 1 == n)
-        })
+        [x, y, z]
+            .into_iter()
+            .enumerate()
+            .any(|(a, c)| self.at_seam_of(a, c))
+    }
+
+    /// [`Forward::at_seam`] on one axis: `axis` wraps, and coordinate `c` is at one of its
+    /// ends or the axis has fewer than [`FEWEST_CELLS_INSIDE`] cells.
+    #[inline]
+    fn at_seam_of(&self, axis: usize, c: usize) -> bool {
+        let n = self.cells[axis];
+        self.wraps[axis] && (n < FEWEST_CELLS_INSIDE || c == 0 || c + 1 == n)
     }
 
     /// The cells of row `y` of layer `z` whose every pair lies away from the seams (see
@@ -445,11 +457,8 @@ impl Forward<'_> {
     /// wraps. The walk takes them particle by particle (see `scan_row`).
     fn cells_inside(&self, z: usize, y: usize) -> std::ops::Range<usize> {
         let width = self.cells[0];
-        let at_seam = |a: usize, c: usize| {
-            let n = self.cells[a];
-            self.wraps[a] && (n < FEWEST_CELLS_INSIDE || c == 0 || c + 1 == n)
-        };
-        if at_seam(1, y) || at_seam(2, z) || (self.wraps[0] && width < FEWEST_CELLS_INSIDE) {
+        let row_at_seam = self.at_seam_of(1, y) || self.at_seam_of(2, z);
+        if row_at_seam || (self.wraps[0] && width < FEWEST_CELLS_INSIDE) {
             0..0
         } else if self.wraps[0] {
             1..width - 1

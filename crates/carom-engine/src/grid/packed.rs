@@ -245,24 +245,19 @@ impl Packed {
         (first, last): (usize, usize),
         candidate: &mut impl FnMut(usize),
     ) {
-        let length = last.saturating_sub(first);
-        let mut found = self.lanes::<V>(planar, probe, first) & ((1u32 << length.min(LANES)) - 1);
-        while found != 0 {
-            candidate(first + found.trailing_zeros() as usize);
-            found &= found - 1;
-        }
-        let mut k = first + LANES;
-        while k < last {
-            let mut found = self.lanes::<V>(planar, probe, k);
-            let left = last - k;
-            if left < LANES {
-                found &= (1 << left) - 1;
-            }
+        // (the first group whatever the length: a loop that tests before it runs)
+        let mut k = first;
+        loop {
+            let left = last.saturating_sub(k).min(LANES);
+            let mut found = self.lanes::<V>(planar, probe, k) & ((1u32 << left) - 1);
             while found != 0 {
                 candidate(k + found.trailing_zeros() as usize);
                 found &= found - 1;
             }
             k += LANES;
+            if k >= last {
+                return;
+            }
         }
     }
 

@@ -72,7 +72,7 @@ pub(crate) fn reaches_of<V: Vector>(
             squared += vz * vz;
         }
         let s = squared.sqrt();
-        let r = f64x4::new(radius[k..k + WIDTH].try_into().expect("a whole group"));
+        let r = f64x4::new(std::array::from_fn(|l| radius[k + l]));
         let out = (r + slop * r) + ((s + fall_lanes) * dt_lanes).min(r);
         reach[k..k + WIDTH].copy_from_slice(&out.to_array());
         if let Some(speed) = speed.as_deref_mut() {
@@ -82,10 +82,10 @@ pub(crate) fn reaches_of<V: Vector>(
     }
     let mut largest = fastest.to_array().into_iter().fold(0.0, f64::max);
     for k in whole..reach.len() {
-        let moves;
-        (reach[k], _, moves) = reach_at(velocity[k], radius[k], fall, dt);
+        let (s, moves);
+        (reach[k], s, moves) = reach_at(velocity[k], radius[k], fall, dt);
         if let Some(speed) = speed.as_deref_mut() {
-            speed[k] = velocity[k].length_squared().sqrt();
+            speed[k] = s;
         }
         largest = largest.max(moves);
     }
