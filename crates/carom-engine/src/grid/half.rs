@@ -188,45 +188,12 @@ impl<V: Vector> Grid<V> {
                 parallel,
             );
         let streamed = streamed.then_some((&self.packed, &planar[..]));
-        let (ids, cell_start) = (&self.ids, &self.cell_start);
+        let ids = &self.ids;
+        let tests = (keep, &overlaps, across);
         let work = |(task, out): (usize, &mut Vec<Pair>)| {
             out.clear();
             for r in task * rows_per_task..((task + 1) * rows_per_task).min(rows) {
-                let (z, y) = (r / height, r % height);
-                let mut rows_after = [0; MOST_RUNS];
-                let row_count = after.rows_after(z, y, &mut rows_after);
-                let rows_after = &rows_after[..row_count];
-                // (the cells away from the seams particle by particle, those at a seam cell
-                // by cell, each pair at its minimum image)
-                let inside = match streamed {
-                    Some(_) => after.cells_inside(z, y),
-                    None => 0..0,
-                };
-                if let (Some((packed, planar)), false) = (streamed, inside.is_empty()) {
-                    let row = r * width;
-                    let places = cell_start[row + inside.start] as usize
-                        ..cell_start[row + inside.end] as usize;
-                    let probes = (packed, planar, &ids[..], &cell_start[..]);
-                    scan_row::<V>(
-                        probes,
-                        (row, places),
-                        rows_after,
-                        &after,
-                        keep,
-                        out,
-                        &overlaps,
-                    );
-                }
-                let by_cell = (0..inside.start).chain(inside.end.max(inside.start)..width);
-                let tests = (keep, &overlaps, across);
-                scan_cells(
-                    &after,
-                    (ids, still),
-                    (z, y, by_cell),
-                    rows_after,
-                    out,
-                    tests,
-                );
+                walk_row::<V>(r, &after, streamed, (ids, still), tests, out);
             }
             keep_headroom(out);
         };
@@ -263,6 +230,52 @@ impl<V: Vector> Grid<V> {
             pairs.sort_unstable();
         }
     }
+}
+
+/// The walk of row `r` (of all layers' rows, layer by layer) of [`Grid::walk_cells`]: the
+/// cells away from the seams particle by particle through the packed copy when `streamed`
+/// holds it (and its coordinates), the cells at a seam (or all, without it) cell by cell,
+/// each pair at its minimum image there.
+#[inline(always)]
+fn walk_row<V: Vector>(
+    r: usize,
+    after: &Forward<'_>,
+    streamed: Option<(&Packed, &[u32])>,
+    (ids, still): (&[u32], &[bool]),
+    tests: (
+        Option<&PairFilter<'_>>,
+        &(impl Fn(usize, usize) -> bool + ?Sized),
+        Option<SeamTest<'_>>,
+    ),
+    out: &mut Vec<Pair>,
+) {
+    let [width, height, _] = after.cells;
+    let (z, y) = (r / height, r % height);
+    let mut rows_after = [0; MOST_RUNS];
+    let row_count = after.rows_after(z, y, &mut rows_after);
+    let rows_after = &rows_after[..row_count];
+    let inside = match streamed {
+        Some(_) => after.cells_inside(z, y),
+        None => 0..0,
+    };
+    let (keep, overlaps, _) = tests;
+    if let (Some((packed, planar)), false) = (streamed, inside.is_empty()) {
+        let row = r * width;
+        let cell_start = after.cell_start;
+        let places = cell_start[row + inside.start] as usize..cell_start[row + inside.end] as usize;
+        let probes = (packed, planar, ids, cell_start);
+        scan_row::<V>(
+            probes,
+            (row, places),
+            rows_after,
+            after,
+            keep,
+            out,
+            overlaps,
+        );
+    }
+    let by_cell = (0..inside.start).chain(inside.end.max(inside.start)..width);
+    scan_cells(after, (ids, still), (z, y, by_cell), rows_after, out, tests);
 }
 
 /// The walk cell by cell (see [`Grid::walk_cells`]) over the cells `xs` of row `y` of layer

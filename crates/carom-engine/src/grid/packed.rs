@@ -73,6 +73,11 @@ pub(super) struct Probe {
     reach: f32,
 }
 
+/// The length `layout` spans on axis `a`.
+fn extent_of(layout: &GridLayout, a: usize) -> f64 {
+    layout.cell_size[a] * layout.cells[a] as f64
+}
+
 /// The copy of the coordinates `x` and `y` in units, one `u32` a place (`y` in the high
 /// half), lent to [`Packed::fill`] and [`Packed::scan`].
 pub(super) type PlanarUnits = Vec<u32>;
@@ -90,7 +95,7 @@ impl Packed {
         planar: &mut PlanarUnits,
         parallel: bool,
     ) -> bool {
-        let extent = |a: usize| layout.cell_size[a] * layout.cells[a] as f64;
+        let extent = |a: usize| extent_of(layout, a);
         let largest_unit = (0..V::DIM).map(|a| extent(a) / UNITS).fold(0.0, f64::max);
         if !(largest_unit.is_finite() && largest_unit > 0.0 && max_radius.is_finite()) {
             return false;
@@ -148,6 +153,22 @@ impl Packed {
             (3, false) => copy(0, (planar, &mut z[..n], reach)),
             (_, false) => copy(0, (planar, &mut [], reach)),
         };
+        self.take_scales::<V>(layout, max_radius, (smallest, largest))
+    }
+
+    /// Sets the copy's units, reach step and margin (see the [module notes](self)) for
+    /// `layout`'s extent and radii at most `max_radius`, of which the copy holds radii from
+    /// `smallest` to `largest`; returns whether the copy holds them (no negative radius, and
+    /// none more steps than a byte holds).
+    fn take_scales<V: Vector>(
+        &mut self,
+        layout: &GridLayout,
+        max_radius: f64,
+        (smallest, largest): (f64, f64),
+    ) -> bool {
+        let extent = |a: usize| extent_of(layout, a);
+        let largest_unit = (0..V::DIM).map(|a| extent(a) / UNITS).fold(0.0, f64::max);
+        let step = max_radius / REACH_STEPS;
         let root_dim = (V::DIM as f64).sqrt();
         let u = f64::from(f32::EPSILON) / 2.0;
         self.unit = std::array::from_fn(|a| (extent(a) / UNITS) as f32);
