@@ -210,10 +210,13 @@ pub(crate) const CHUNK: usize = 1024;
 
 /// Below this many particles every phase but the pair search runs on the calling thread:
 /// handing out work to the pool costs more than it saves (the solver makes up to a hundred
-/// short parallel calls per step). Serial and parallel runs give the same bits either way.
-/// (Measured on 2 cores, 5000 discs: 16,384 left the lecture pile at 8.2 ms a step on 2
-/// threads, 4096 gives 6.0; the lecture's 5000-disc gas goes from 0.74 to 0.51 ms.)
-pub const PARALLEL_MIN: usize = 4096;
+/// short parallel calls per step, and on a machine whose idle cores halt, a sleeping worker
+/// wakes later than a 5000-disc phase ends). Serial and parallel runs give the same bits
+/// either way. Measured on 2 cores (docs/benchmarks.md, thirty-seventh sitting), 2 threads,
+/// this threshold against 4096: the lecture's 5000 discs in its grids 0.85-0.92x the time, the
+/// lecture pile 0.94-0.96x; 10^4 discs about even (a pile 0.90-1.10x), and from 2 x 10^4 on
+/// serial phases cost 1.05-1.21x.
+pub const PARALLEL_MIN: usize = 8192;
 
 /// The pair search, one big parallel call per step, pays off from this many particles.
 pub const PARALLEL_SEARCH_MIN: usize = 2048;

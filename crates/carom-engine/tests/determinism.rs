@@ -229,8 +229,11 @@ fn every_grid_resolution_follows_brute_force_3d() {
 
 /// `elastic`: k = 1 and elastic walls (the lecture's step, walls bouncing in the move).
 fn big_scene(with_domain: bool, elastic: bool) -> World<DVec2> {
-    // > 4096 particles: several integration chunks (4096) and pair-search chunks (1024)
-    let bodies = mixed_bodies::<DVec2>(5000, 150.0, 5.0, 5);
+    // more than `PARALLEL_MIN` particles: every phase in parallel chunks, several integration
+    // chunks (4096) and pair-search chunks (1024)
+    let n = 9000;
+    assert!(n > carom_engine::broadphase::PARALLEL_MIN);
+    let bodies = mixed_bodies::<DVec2>(n, 200.0, 5.0, 5);
     let k = if elastic { 1.0 } else { 0.5 };
     let mut b = World::<DVec2>::builder()
         .dt(0.01)
@@ -238,7 +241,7 @@ fn big_scene(with_domain: bool, elastic: bool) -> World<DVec2> {
         .restitution(k);
     if with_domain {
         b = b
-            .domain(Aabb::new(DVec2::splat(-150.0), DVec2::splat(150.0)).unwrap())
+            .domain(Aabb::new(DVec2::splat(-200.0), DVec2::splat(200.0)).unwrap())
             .walls(if elastic { 1.0 } else { 0.8 });
     }
     with_bodies(b, &bodies).build().unwrap()

@@ -267,8 +267,10 @@ fn big_periodic_hash(threads: usize) -> (u64, usize) {
         .build()
         .unwrap();
     pool.install(|| {
-        // > 4096 particles: parallel chunks everywhere, the wrap included
-        let bodies = mixed_bodies::<DVec2>(5000, 150.0, 5.0, 5);
+        // more than `PARALLEL_MIN` particles: parallel chunks everywhere, the wrap included
+        let n = 9000;
+        assert!(n > carom_engine::broadphase::PARALLEL_MIN);
+        let bodies = mixed_bodies::<DVec2>(n, 150.0, 5.0, 5);
         let mut w = periodic_pile(&bodies, &[true, false], BroadPhaseKind::Grid, None)
             .build()
             .unwrap();
