@@ -214,8 +214,8 @@ pub(crate) const CHUNK: usize = 1024;
 /// wakes later than a 5000-disc phase ends). Serial and parallel runs give the same bits
 /// either way. Measured on 2 cores (docs/benchmarks.md, thirty-seventh sitting), 2 threads,
 /// this threshold against 4096: the lecture's 5000 discs in its grids 0.85-0.92x the time, the
-/// lecture pile 0.94-0.96x; 10^4 discs about even (a pile 0.90-1.10x), and from 2 x 10^4 on
-/// serial phases cost 1.05-1.21x.
+/// lecture pile 0.94-0.98x; 10^4 discs about even (a pile 0.99-1.11x serial), and from 2 x 10^4
+/// on serial phases cost 1.04-1.22x.
 pub const PARALLEL_MIN: usize = 8192;
 
 /// The pair search, one big parallel call per step, pays off from this many particles.
