@@ -401,10 +401,9 @@ pub fn widened_reach(coordinate: f64, reach: f64) -> f64 {
 
 /// Most cells a derived layout may have for `n` particles: one a particle. Cells one largest
 /// reach wide would be 1.4-2.6 a particle in issue 14's gas (area fraction 0.3: 2.6 over the
-/// radii alone) and more in a dilute one;
-/// the walk along the cell order pays nothing for a cell's being empty or holding a few (its
-/// runs are tested 8 at a time), but the counting sort passes over every cell and their starts
-/// take 4 bytes each. Against 4 a particle (docs/benchmarks.md, thirty-seventh sitting): that
+/// radii alone) and more in a dilute one; the walk along the cell order pays nothing for a
+/// cell's being empty or holding a few (its runs are tested 8 at a time), but the counting
+/// sort passes over every cell and their starts take 4 bytes each. Against 4 a particle (docs/benchmarks.md, thirty-seventh sitting): that
 /// gas's peak 119.0 -> 116.1 bytes a particle at the same speed (1000 x 1000 cells instead of
 /// up to 1311 x 1311), a dilute gas (10^5 discs, area fraction 0.05) 0.84-0.99x the time; the 3D
 /// case, the falling and dense 10^6 discs and the lecture pile as before; the same bits.
