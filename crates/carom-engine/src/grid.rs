@@ -399,14 +399,16 @@ pub fn widened_reach(coordinate: f64, reach: f64) -> f64 {
     reach * (1.0 + 1e-9) + 4.0 * f64::EPSILON * (coordinate.abs() + reach)
 }
 
-/// Most cells a derived layout may have for `n` particles: one a particle. Cells one largest
-/// reach wide would be 1.4-2.6 a particle in issue 14's gas (area fraction 0.3: 2.6 over the
-/// radii alone) and more in a dilute one; the walk along the cell order pays nothing for a
-/// cell's being empty or holding a few (its runs are tested 8 at a time), but the counting
-/// sort passes over every cell and their starts take 4 bytes each. Against 4 a particle (docs/benchmarks.md, thirty-seventh sitting): that
-/// gas's peak 119.0 -> 116.1 bytes a particle at the same speed (1000 x 1000 cells instead of
-/// up to 1311 x 1311), a dilute gas (10^5 discs, area fraction 0.05) 0.84-0.99x the time; the 3D
-/// case, the falling and dense 10^6 discs and the lecture pile as before; the same bits.
+/// Most cells a derived layout may have for `n` particles (at least 64): one a particle. Cells
+/// one largest reach wide would be 1.4-2.6 a particle in issue 14's gas (area fraction 0.3: 2.6
+/// over the radii alone) and more in a dilute one; the walk along the cell order through the
+/// packed copy pays nothing for a cell's being empty or holding a few (its runs are tested 8 at
+/// a time; the walk cell by cell, at periodic seams or past sleepers, still visits each cell),
+/// but the counting sort passes over every cell and their starts take 4 bytes each. Against 4
+/// a particle (docs/benchmarks.md, thirty-seventh sitting): that gas's peak 119.0 -> 116.1
+/// bytes a particle at the same speed (1000 x 1000 cells instead of up to 1311 x 1311), a
+/// dilute gas (10^5 discs, area fraction 0.05) 0.84-0.99x the time; the 3D case, the falling
+/// and dense 10^6 discs and the lecture pile as before; the same bits.
 pub fn cell_limit(n: usize) -> f64 {
     (n.max(64) as f64).min(MAX_CELLS as f64)
 }

@@ -156,6 +156,23 @@ fn open_3d_cloud_with_the_hash_is_bit_identical() {
     check_identical(build, 40, &[2, 4]);
 }
 
+/// Above `PARALLEL_MIN` every phase of a world, and of a lone rank, runs in parallel chunks:
+/// spheres in a walled box on one rank and two, the whole world on a pool of one thread and of
+/// two (the ranks on the global pool), all the same bits.
+#[test]
+fn a_3d_pile_above_the_parallel_threshold_is_bit_identical_on_ranks_and_threads() {
+    let n = 9000;
+    assert!(n > carom_engine::broadphase::PARALLEL_MIN);
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let build = || walled::<DVec3>(n, 45.0, 2.0).build().unwrap();
+        pool.install(|| check_identical(build, 20, &[1, 2]));
+    }
+}
+
 #[test]
 fn more_ranks_than_blocks_still_agrees() {
     check_identical(

@@ -8,7 +8,8 @@ use carom_engine::{Aabb, Pair};
 
 /// The grid to draw: the broad phase's own when it is the lecture's grid (same box, same
 /// cells), otherwise the grid the lecture would use (cells one largest diameter wide, at most
-/// about 4 per particle) over the domain or, without one, over the particles' bounding box.
+/// one per particle as the engine's derived grids: [`carom_engine::grid::cell_limit`]) over the
+/// domain or, without one, over the particles' bounding box.
 pub fn layout_for(
     dims: usize,
     domain: Option<(DVec3, DVec3)>,
@@ -27,7 +28,7 @@ pub fn layout_for(
     } else {
         (DVec3::ZERO, DVec3::ONE)
     };
-    let limit = ((4 * positions.len()).max(64) as f64).min(1e6);
+    let limit = carom_engine::grid::cell_limit(positions.len()).min(1e6);
     let max_radius = if max_radius.is_finite() && max_radius > 0.0 {
         max_radius
     } else {
