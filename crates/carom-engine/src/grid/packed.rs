@@ -153,22 +153,25 @@ impl Packed {
             (3, false) => copy(0, (planar, &mut z[..n], reach)),
             (_, false) => copy(0, (planar, &mut [], reach)),
         };
-        self.take_scales::<V>(layout, max_radius, (smallest, largest))
+        self.take_scales::<V>(
+            layout,
+            (step, largest_unit),
+            (smallest, largest, max_radius),
+        )
     }
 
-    /// Sets the copy's units, reach step and margin (see the [module notes](self)) for
-    /// `layout`'s extent and radii at most `max_radius`, of which the copy holds radii from
-    /// `smallest` to `largest`; returns whether the copy holds them (no negative radius, and
-    /// none more steps than a byte holds).
+    /// Sets the copy's units, reach `step`, margin and widest reach (see the
+    /// [module notes](self)) for `layout`'s extent, whose largest unit is `largest_unit`, and
+    /// radii at most `max_radius`, of which the copy holds radii from `smallest` to `largest`;
+    /// returns whether the copy holds them (no negative radius, and none more steps than a
+    /// byte holds).
     fn take_scales<V: Vector>(
         &mut self,
         layout: &GridLayout,
-        max_radius: f64,
-        (smallest, largest): (f64, f64),
+        (step, largest_unit): (f64, f64),
+        (smallest, largest, max_radius): (f64, f64, f64),
     ) -> bool {
         let extent = |a: usize| extent_of(layout, a);
-        let largest_unit = (0..V::DIM).map(|a| extent(a) / UNITS).fold(0.0, f64::max);
-        let step = max_radius / REACH_STEPS;
         let root_dim = (V::DIM as f64).sqrt();
         let u = f64::from(f32::EPSILON) / 2.0;
         self.unit = std::array::from_fn(|a| (extent(a) / UNITS) as f32);
