@@ -8,6 +8,7 @@ mod failure;
 mod floor;
 mod input;
 mod launch;
+mod pipe;
 mod render;
 mod resume;
 mod run;
@@ -57,6 +58,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    pipe::end_quietly_when_the_reader_goes();
     allocator::fix_mmap_threshold();
     let cli = Cli::parse();
     #[cfg(feature = "mpi")]
