@@ -122,6 +122,38 @@ fn default_scene_runs_with_a_summary() {
     assert!(out.stderr.is_empty(), "no progress bar when not a terminal");
 }
 
+/// The summary names the cells the search used: those the scene asks for, or those the last
+/// step derived from its reaches (it printed those the end's overlap search fitted to the
+/// radii alone, and "grid 1x1" for a run of no steps, which lays out no cells).
+#[test]
+fn the_summary_names_the_cells_the_steps_searched() {
+    let line = |args: &[&str]| {
+        let out = run_ok(args);
+        let text = String::from_utf8(out.stdout).unwrap();
+        let line = text.lines().find(|l| l.starts_with("particles"));
+        line.unwrap_or_else(|| panic!("no particles line in:\n{text}"))
+            .to_string()
+    };
+    let asked = scenes().join("lecture_5000_grid100.toml");
+    let asked = asked.to_str().unwrap();
+    for steps in ["0", "2"] {
+        let text = line(&["run", asked, "--steps", steps]);
+        assert!(text.contains("broad phase grid 100x100, "), "{text}");
+    }
+    let text = line(&["run", "--steps", "0"]);
+    assert!(
+        text.contains("broad phase grid, cells derived each step, "),
+        "{text}"
+    );
+    // (the default scene's reaches, its radii swept over a step's motion, take 10 cells a
+    // side where its radii alone take 20)
+    let text = line(&["run", "--steps", "2"]);
+    assert!(
+        text.contains("broad phase grid 10x10 (derived: the last step's), "),
+        "{text}"
+    );
+}
+
 /// The summary line of `text` that starts with `key`, and the numbers in it in order.
 fn summary_numbers<'a>(text: &'a str, key: &str) -> (&'a str, Vec<f64>) {
     let line = text

@@ -77,7 +77,8 @@ pub trait BroadPhase<V: Vector>: Send + Sync {
     /// Short name for reports ("brute", "grid").
     fn name(&self) -> &'static str;
 
-    /// Cells per axis in use (1 on unused axes), or `None` when there is no grid.
+    /// Cells per axis in use (1 on unused axes), as the last search laid them out; `None` when
+    /// there is no grid or no search has run yet.
     fn cells(&self) -> Option<[usize; 3]> {
         None
     }

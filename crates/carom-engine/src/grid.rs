@@ -46,6 +46,8 @@ pub struct Grid<V> {
     domain: Option<Aabb<V>>,
     requested_cells: Option<[usize; 3]>,
     layout: GridLayout,
+    /// Whether a search has laid the cells out yet (before one there are none to report).
+    laid_out: bool,
     cell_of: Vec<u32>,
     cell_start: Vec<u32>,
     ids: Vec<u32>,
@@ -201,6 +203,7 @@ impl<V: Vector> Grid<V> {
         Ok(Self {
             domain,
             requested_cells,
+            laid_out: false,
             layout: GridLayout {
                 origin: [0.0; 3],
                 cell_size: [1.0; 3],
@@ -252,6 +255,7 @@ impl<V: Vector> Grid<V> {
             cell_limit(positions.len()),
         );
         self.layout = layout;
+        self.laid_out = true;
     }
 
     /// True when more particles are outside the domain than the grid's border cells should
@@ -579,7 +583,7 @@ impl<V: Vector> BroadPhase<V> for Grid<V> {
     }
 
     fn cells(&self) -> Option<[usize; 3]> {
-        Some(self.layout.cells)
+        self.laid_out.then_some(self.layout.cells)
     }
 }
 

@@ -18,6 +18,8 @@ pub struct Summary<'a, V: Vector> {
     /// The deepest overlap at the end over every pair (see `World::deepest_overlap`), as a
     /// fraction of the smaller radius.
     pub end_overlap: f64,
+    /// The grid's cells in the last step (see `World::grid_cells`), if it took one.
+    pub grid_cells: Option<[usize; 3]>,
 }
 
 impl<V: Vector> Summary<'_, V> {
@@ -38,13 +40,7 @@ impl<V: Vector> Summary<'_, V> {
         let (world, run) = (self.world, self.run);
         let name = run.name.unwrap_or("(unnamed)");
         println!("scene       {name} [{}]", run.origin);
-        let broad = match world.grid_cells() {
-            Some(c) => {
-                let cells: Vec<String> = c[..V::DIM].iter().map(|n| n.to_string()).collect();
-                format!("grid {}", cells.join("x"))
-            }
-            None => world.broad_phase_name().to_string(),
-        };
+        let broad = self.broad_phase();
         println!(
             "particles   {} ({}D), broad phase {broad}, {} threads",
             world.len(),
@@ -57,6 +53,29 @@ impl<V: Vector> Summary<'_, V> {
             world.config().dt,
             world.time()
         );
+    }
+
+    /// The broad phase, with the grid's cells: those the scene asks for, or those derived
+    /// from the reaches in the last step (they may differ from step to step).
+    fn broad_phase(&self) -> String {
+        let world = self.world;
+        let asked = world.config().grid_cells.as_deref();
+        let shown = |c: &[usize]| {
+            let cells: Vec<String> = c[..V::DIM].iter().map(|n| n.to_string()).collect();
+            cells.join("x")
+        };
+        let name = world.broad_phase_name();
+        // (a grid's name may say that it hashes those outside its domain)
+        let Some(note) = name.strip_prefix("grid") else {
+            return name.to_string();
+        };
+        let cells = match (self.grid_cells, asked) {
+            (Some(c), Some(_)) => format!(" {}", shown(&c)),
+            (None, Some(c)) => format!(" {}", shown(c)),
+            (Some(c), None) => format!(" {} (derived: the last step's)", shown(&c)),
+            (None, None) => ", cells derived each step".to_string(),
+        };
+        format!("grid{cells}{note}")
     }
 
     /// Time, contacts, collisions, the solver's cap, sleep and overlap (for a run of at least

@@ -449,7 +449,11 @@ impl<V: Vector> World<V> {
         self.broad_phase.name()
     }
 
-    /// Grid cells per axis in use (after the first step), if the broad phase is a grid.
+    /// Grid cells per axis as the last search laid them out (a step's, or
+    /// [`World::deepest_overlap`]'s, which fits them to the radii alone), if the broad phase
+    /// is a grid and has searched. Cells derived from the particles (no
+    /// [`WorldConfig::grid_cells`]) are fitted to each step's reaches, so they may change from
+    /// step to step.
     pub fn grid_cells(&self) -> Option<[usize; 3]> {
         self.broad_phase.cells()
     }
