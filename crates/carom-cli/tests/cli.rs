@@ -370,6 +370,22 @@ speed = 1.0
 seed = 1
 "#;
 
+/// The scene format's reference block, every key with a value, is a scene `carom check`
+/// takes (its plane once cut through its fill's region, and `carom check` refused it).
+#[test]
+fn the_scene_format_reference_checks() {
+    let doc = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/scene-format.md");
+    let doc = std::fs::read_to_string(doc).unwrap();
+    let block = doc.split("```toml\n").nth(1).expect("a ```toml block");
+    let block = block.split("```").next().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("reference.toml");
+    std::fs::write(&scene, block).unwrap();
+    let out = run_ok(&["check", scene.to_str().unwrap()]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("ok, 2D"), "{text}");
+}
+
 #[test]
 fn the_good_scene_is_good() {
     let dir = tempfile::tempdir().unwrap();
