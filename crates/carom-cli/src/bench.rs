@@ -44,7 +44,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Internal: run one case and print its result as JSON.
-    #[arg(long, hide = true)]
+    #[arg(long, hide = true, conflicts_with_all = ["quick", "threads", "json", "out", "plot"])]
     pub case: Option<String>,
 }
 
@@ -146,7 +146,15 @@ pub fn bench(args: &BenchArgs) -> Result<(), Failure> {
             crate::input::check_output_path(flag, p)?;
         }
     }
+    if let (Some(out), Some(plot)) = (&args.out, &args.plot) {
+        crate::input::check_distinct(&[("--out", out), ("--plot", plot)], &[])?;
+    }
     let cases = cases(args);
+    if args.plot.is_some() && !cases.iter().any(|c| c.group.starts_with("sweep")) {
+        return Err(Failure::input(
+            "--plot: draws the sweep, which this run leaves out (see --only)",
+        ));
+    }
     let exe = std::env::current_exe()
         .map_err(|e| Failure::runtime(format!("cannot find the carom binary: {e}")))?;
     let progress = ProgressBar::new(cases.len() as u64);
@@ -353,6 +361,8 @@ fn peak_rss_bytes() -> u64 {
 fn run_case(json: &str) -> Result<(), Failure> {
     let case: Case =
         serde_json::from_str(json).map_err(|e| Failure::input(format!("--case: {e}")))?;
+    let steps = case.warmup.saturating_add(case.steps);
+    crate::input::check_steps("--case: warmup + steps", Some(steps))?;
     // (the case's own thread count: a case run by hand takes the same pool as under `bench`)
     crate::input::set_threads(case.threads)?;
     let started = Instant::now();

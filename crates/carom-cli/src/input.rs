@@ -176,8 +176,10 @@ pub fn parse_size(
     Ok((w, h))
 }
 
-/// Refuses an output path whose folder is missing or which is a folder itself, before any
-/// work is done.
+/// Refuses, before any work is done, an output path whose folder is missing or cannot be
+/// written in, or which is a folder itself or anything else but a file (a device or a named
+/// pipe: an output is written to a temporary renamed over it, which would put a file in the
+/// place of `/dev/null`).
 pub fn check_output_path(flag: &str, out: &Path) -> Result<(), Failure> {
     let dir = match out.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
@@ -195,12 +197,32 @@ pub fn check_output_path(flag: &str, out: &Path) -> Result<(), Failure> {
             out.display()
         )));
     }
+    if out.exists() && !out.is_file() {
+        return Err(Failure::input(format!(
+            "{flag}: {} is not a regular file (a device or a pipe?); leave the flag out to \
+             write nothing",
+            out.display()
+        )));
+    }
+    // (the run would otherwise find out at its end, when it writes its temporary there)
+    tempfile::Builder::new()
+        .prefix(".carom-")
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .map_err(|e| {
+            let dir = dir.display();
+            Failure::input(format!("{flag}: cannot write in folder {dir}: {e}"))
+        })?;
     Ok(())
 }
 
 /// The file a path names, for comparing paths: its folder resolved (links, `..`), its name as
-/// given. `None` when the folder does not exist (then [`check_output_path`] refuses it).
+/// given, or the whole path resolved when it exists (a link to the file is the file). `None`
+/// when the folder does not exist (then [`check_output_path`] refuses it).
 fn file_identity(path: &Path) -> Option<PathBuf> {
+    if let Ok(resolved) = path.canonicalize() {
+        return Some(resolved);
+    }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -208,15 +230,31 @@ fn file_identity(path: &Path) -> Option<PathBuf> {
     Some(dir.canonicalize().ok()?.join(path.file_name()?))
 }
 
+/// Whether `a` and `b` name one file: the same [`file_identity`], or, both existing, the same
+/// file on the same device under two names (a hard link).
+fn same_file(a: &Path, b: &Path) -> bool {
+    let (Some(id_a), Some(id_b)) = (file_identity(a), file_identity(b)) else {
+        return false;
+    };
+    if id_a == id_b {
+        return true;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(a), Ok(b)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return (a.dev(), a.ino()) == (b.dev(), b.ino());
+        }
+    }
+    false
+}
+
 /// Refuses two outputs naming the same file, and an output naming one of the `inputs` (the
 /// scene or checkpoint being read, which it would overwrite).
 pub fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), Failure> {
     for (i, (flag, path)) in outputs.iter().enumerate() {
-        let Some(id) = file_identity(path) else {
-            continue;
-        };
         for (other, other_path) in &outputs[..i] {
-            if file_identity(other_path).as_ref() == Some(&id) {
+            if same_file(path, other_path) {
                 return Err(Failure::input(format!(
                     "{flag}: {} is also the file of {other}; give each its own",
                     path.display()
@@ -224,7 +262,7 @@ pub fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Re
             }
         }
         for (what, input) in inputs {
-            if file_identity(input).as_ref() == Some(&id) {
+            if same_file(path, input) {
                 return Err(Failure::input(format!(
                     "{flag}: {} is the {what} being read, which this would overwrite",
                     path.display()
@@ -286,5 +324,26 @@ mod tests {
         assert!(e.to_string().starts_with("--trajectory: "), "{e}");
         let e = check_distinct(&[("--out", &a)], &[("scene file", &same)]).unwrap_err();
         assert!(e.to_string().contains("scene file"), "{e}");
+    }
+
+    /// A scene read through a link (symbolic or hard) is the file it links to: an output
+    /// naming that file was not refused, and overwrote the scene.
+    #[cfg(unix)]
+    #[test]
+    fn an_input_read_through_a_link_is_its_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(&scene, "dimensions = 2").unwrap();
+        let (soft, hard) = (dir.path().join("soft.toml"), dir.path().join("hard.toml"));
+        std::os::unix::fs::symlink(&scene, &soft).unwrap();
+        std::fs::hard_link(&scene, &hard).unwrap();
+        for link in [&soft, &hard] {
+            let e = check_distinct(&[("--out", &scene)], &[("scene file", link)]).unwrap_err();
+            assert!(e.to_string().contains("scene file"), "{e}");
+            let e = check_distinct(&[("--out", link)], &[("scene file", &scene)]).unwrap_err();
+            assert!(e.to_string().contains("scene file"), "{e}");
+        }
+        let other = dir.path().join("other.csv");
+        assert!(check_distinct(&[("--out", &other)], &[("scene file", &soft)]).is_ok());
     }
 }

@@ -92,7 +92,7 @@ fn one_world<V: Vector>(build: impl BuildWorlds<V>) -> Result<World<V>, Failure>
 
 /// `--observe` in a split run: each rank sums the collisional virial of its own contacts, and
 /// those sums added in another order would not give one process's bits.
-fn refuse_split_observe() -> Failure {
+pub(crate) fn refuse_split_observe() -> Failure {
     Failure::input(
         "--observe: not available in a split run (--ranks, mpirun): the pressure's virial is \
          summed per rank and would not match one process's to the bit; observe with one rank",

@@ -7,7 +7,9 @@
 //! same folder that is renamed into place only when `ffmpeg` succeeded.
 
 use crate::failure::Failure;
-use crate::input::{check_output_path, check_steps, load_scene, parse_size, set_threads};
+use crate::input::{
+    check_distinct, check_output_path, check_steps, load_scene, parse_size, set_threads,
+};
 use carom_engine::{Vector, World};
 use carom_render::{colour_range, Bounds, Camera, Colouring, Frame, GifFrame, GifWriter, Pixmap};
 use carom_render::{RenderOptions, MAX_SIZE};
@@ -222,6 +224,8 @@ pub fn render(args: &RenderArgs) -> Result<(), Failure> {
         )));
     }
     check_output_path("--out", &args.out)?;
+    let scene_file = args.scene.as_deref().map(|s| ("scene file", s));
+    check_distinct(&[("--out", &args.out)], scene_file.as_slice())?;
     let ffmpeg = if format == Format::Mp4 {
         Some(find_ffmpeg().ok_or_else(|| {
             Failure::input(
@@ -562,6 +566,9 @@ fn write_mp4<V: Vector>(
         text
     });
     let mut stdin = child.stdin.take();
+    // (an ffmpeg that stops early closes the pipe: a failed write, reported below with what
+    // ffmpeg said, and the temporary removed)
+    let _broken_pipes_are_errors = crate::pipe::BrokenPipesAreErrors::new();
     let fed = pipeline.run(
         |_, p| Ok(p),
         |p| match stdin.as_mut() {

@@ -4,9 +4,7 @@
 use crate::driver::step::Outputs;
 use crate::driver::Labels;
 use crate::failure::Failure;
-use crate::input::{
-    apply_overrides, check_distinct, check_output_path, check_ranks, check_steps, set_threads,
-};
+use crate::input::{check_distinct, check_output_path, check_ranks, check_steps, set_threads};
 use crate::launch::{copies_of, run_world};
 use carom_engine::Vector;
 use carom_output::checkpoint::Checkpoint;
@@ -64,10 +62,22 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
     let outputs: Vec<(&str, &Path)> = outputs
         .into_iter()
         .filter_map(|(flag, path)| Some((flag, path?)))
-        // writing the next checkpoints over the one being read is how a long run goes on
+        .collect();
+    check_distinct(&outputs, &[])?;
+    // (writing the next checkpoints over the one being read is how a long run goes on)
+    let over_the_checkpoint: Vec<_> = outputs
+        .into_iter()
         .filter(|(flag, _)| *flag != "--checkpoint-to")
         .collect();
-    check_distinct(&outputs, &[("checkpoint", &args.checkpoint)])?;
+    check_distinct(&over_the_checkpoint, &[("checkpoint", &args.checkpoint)])?;
+    crate::driver::step::check_outputs(
+        args.checkpoint_to.as_deref().zip(args.checkpoint_every),
+        args.trajectory.as_deref().zip(args.every),
+        args.observe.as_deref().zip(args.every),
+    )?;
+    if args.ranks.is_some_and(|r| r > 1) && args.observe.is_some() {
+        return Err(crate::launch::refuse_split_observe());
+    }
     let shown = args.checkpoint.display().to_string();
     let bytes = std::fs::read(&args.checkpoint)
         .map_err(|e| Failure::input(format!("{shown}: cannot read checkpoint: {e}")))?;
@@ -77,6 +87,19 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
     })?;
     // (the file's bytes are done with: they would stay beside the world for the whole run)
     drop(bytes);
+    let settings: RunSettings = serde_json::from_str(&cp.settings_json)
+        .map_err(|e| Failure::input(format!("{shown}: damaged run settings: {e}")))?;
+    for (what, steps) in [
+        ("is at step", cp.steps_taken),
+        ("runs to step", settings.steps),
+    ] {
+        if steps > carom_scene::MAX_STEPS {
+            return Err(Failure::input(format!(
+                "{shown}: damaged checkpoint: it {what} {steps}, past the limit of {}",
+                carom_scene::MAX_STEPS
+            )));
+        }
+    }
     if let Some(steps) = args.steps {
         if steps < cp.steps_taken {
             return Err(Failure::input(format!(
@@ -86,8 +109,6 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
             )));
         }
     }
-    let settings: RunSettings = serde_json::from_str(&cp.settings_json)
-        .map_err(|e| Failure::input(format!("{shown}: damaged run settings: {e}")))?;
     let outputs = Outputs {
         checkpoint: args.checkpoint_to.clone().zip(args.checkpoint_every),
         trajectory: args.trajectory.clone().zip(args.every),
@@ -124,14 +145,14 @@ fn resume_scene<V: Vector>(
             "{shown}: damaged checkpoint: dimensions disagree with its scene"
         )));
     }
-    apply_overrides(
-        &mut scene,
-        settings.broadphase.as_deref(),
-        settings.cells.as_deref(),
-    )?;
+    // (the settings are the checkpoint's, not this command's flags: a bad one is its damage)
+    (scene.override_broad_phase(settings.broadphase.as_deref(), settings.cells.as_deref()))
+        .map_err(|e| Failure::input(format!("{shown}: damaged run settings: {e}")))?;
     scene.particles = cp
         .particles()
         .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
+    carom_scene::check_state(&scene.particles)
+        .map_err(|e| Failure::input(format!("{shown}: damaged checkpoint: {e}")))?;
     let name = scene.name.clone();
     let run = Labels {
         name: name.as_deref(),

@@ -84,6 +84,8 @@ pub enum BroadPhaseArg {
 
 /// `carom check`: parse the scene and build its world, without stepping.
 pub fn check(path: &Path) -> Result<(), Failure> {
+    // (RAYON_NUM_THREADS, which the scene's fill would start its threads by)
+    set_threads(None)?;
     let (scene, _, _) = load_scene(Some(path), None)?;
     let (n, world_check) = match &scene {
         AnyScene::Two(s) => (s.particles.len(), s.build_world().map(|_| ())),
@@ -124,6 +126,14 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .into_iter()
         .collect();
     check_distinct(&outputs, &inputs)?;
+    crate::driver::step::check_outputs(
+        args.checkpoint.as_deref().zip(args.checkpoint_every),
+        args.trajectory.as_deref().zip(args.every),
+        args.observe.as_deref().zip(args.every),
+    )?;
+    if args.ranks.is_some_and(|r| r > 1) && args.observe.is_some() {
+        return Err(crate::launch::refuse_split_observe());
+    }
     let (scene, origin, text) = load_scene(args.scene.as_deref(), args.preset.as_deref())?;
     match scene {
         AnyScene::Two(s) => run_scene(s, &origin, text, args),

@@ -38,14 +38,22 @@ pub struct ViewArgs {
 
 pub fn view(args: &ViewArgs) -> Result<(), Failure> {
     let (w, h) = parse_size("--size", &args.size, 200..=16384)?;
-    let (mut text, origin) = scene_text(args.scene.as_deref(), args.preset.as_deref())?;
-    // Check the scene here, so that a bad file is one message and exit status 2, not a window.
-    let mut scene = crate::input::parse_scene(&text, &origin)?;
+    // (RAYON_NUM_THREADS, which the scene's fill would start its threads by)
+    crate::input::set_threads(None)?;
     if let Some(radius) = args.radius.filter(|r| !(r.is_finite() && *r > 0.0)) {
         return Err(Failure::input(format!(
             "--radius: must be a finite number > 0, got {radius:?}"
         )));
     }
+    let limit = carom_viewer::control::MAX_PARTICLES;
+    if let Some(count) = args.count.filter(|&n| n == 0 || n > limit) {
+        return Err(Failure::input(format!(
+            "--count: must be in 1..={limit}, got {count}"
+        )));
+    }
+    let (mut text, origin) = scene_text(args.scene.as_deref(), args.preset.as_deref())?;
+    // Check the scene here, so that a bad file is one message and exit status 2, not a window.
+    let mut scene = crate::input::parse_scene(&text, &origin)?;
     if let Some(count) = args.count {
         let radius = match args.radius {
             Some(r) => r,

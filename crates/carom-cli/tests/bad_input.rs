@@ -2,59 +2,20 @@
 //! exit status 2 and one message naming the flag or field, quickly (before any expensive work),
 //! without a panic and without leaving any output file behind.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::{Duration, Instant};
+use std::path::Path;
+use std::time::Duration;
 
 /// Generous for a loaded CI machine: the refusals take milliseconds. Before issue 13,
 /// `--threads 100000` ran for minutes.
 const QUICK: Duration = Duration::from_secs(3);
 
-fn carom() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_carom"))
-}
+mod refusals;
 
-fn newton_cradle() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/newton_cradle.toml")
-}
+use refusals::{carom, listing, newton_cradle, refusal};
 
-/// The files in `dir`, sorted.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .collect();
-    names.sort();
-    names
-}
-
-/// Runs `args` in `dir` and checks the refusal: status 2, one line `carom: error: ...` that
-/// contains every one of `says`, no new file in `dir`, and quickly.
+/// [`refusal`], and quickly.
 fn refused_in(dir: &Path, args: &[&str], env: &[(&str, &str)], says: &[&str]) {
-    let before = listing(dir);
-    let started = Instant::now();
-    let out = carom()
-        .args(args)
-        .envs(env.iter().copied())
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .current_dir(dir)
-        .output()
-        .unwrap();
-    let took = started.elapsed();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
-    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "{args:?}: not one message: {stderr}");
-    assert!(lines[0].starts_with("carom: error: "), "{args:?}: {stderr}");
-    for word in says {
-        assert!(
-            lines[0].contains(word),
-            "{args:?}: no `{word}` in: {stderr}"
-        );
-    }
-    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
-    assert_eq!(listing(dir), before, "{args:?} left a file");
+    let took = refusal(dir, args, env, says);
     assert!(took < QUICK, "{args:?} took {took:?}");
 }
 

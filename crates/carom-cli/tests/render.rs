@@ -213,6 +213,34 @@ fn mp4_without_ffmpeg_is_refused_before_running() {
     assert!(files_in(dir.path()).is_empty());
 }
 
+/// An `ffmpeg` that stops before reading its input: an error that says what it said, exit
+/// status 1, and no temporary left (carom was killed by `SIGPIPE` writing the first frame).
+#[cfg(unix)]
+#[test]
+fn mp4_whose_ffmpeg_stops_early_is_an_error_that_leaves_nothing() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let bin = tempfile::tempdir().unwrap();
+    let ffmpeg = bin.path().join("ffmpeg");
+    std::fs::write(&ffmpeg, "#!/bin/sh\necho 'Unknown encoder' >&2\nexit 1\n").unwrap();
+    std::fs::set_permissions(&ffmpeg, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let out = dir.path().join("movie.mp4");
+    let o = carom()
+        .args(["render", &scene("lecture_100_k05.toml"), "--frames", "5"])
+        .args(["--size", "64x64", "--out", out.to_str().unwrap()])
+        .env("PATH", bin.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("Unknown encoder"), "{err}");
+    assert!(
+        files_in(dir.path()).is_empty(),
+        "{:?}",
+        files_in(dir.path())
+    );
+}
+
 #[test]
 fn gif_is_the_same_for_every_thread_count() {
     let dir = tempfile::tempdir().unwrap();

@@ -447,10 +447,18 @@ fn place_lattice<V: Vector>(
     }
     let seams = placer.seams;
     let mut site = [0usize; 3];
+    let most_sites = count
+        .saturating_mul(LATTICE_SITES_PER_PARTICLE)
+        .max(LATTICE_SITES_AT_LEAST);
+    let mut visited = 0u64;
     let draw = |tries: &mut Vec<V>, placed: usize| {
         let left = count - (placed - start) as u64;
         let size = LATTICE_SITES_PER_BATCH.min(left.max(MIN_TRIES_PER_BATCH as u64) as usize);
         while tries.len() < size && site[V::DIM - 1] < per_axis[V::DIM - 1] {
+            if visited == most_sites {
+                break;
+            }
+            visited += 1;
             let c = lattice_site(site, step, hex);
             // next site, x fastest
             for a in 0..V::DIM {
@@ -471,14 +479,26 @@ fn place_lattice<V: Vector>(
     if place_in_batches(ctx, i, fill, placer, out, rng, draw)? {
         return Ok(());
     }
-    Err(ctx.err(
-        format!("fill[{i}].count"),
+    let placed = out.len() - start;
+    let message = if visited == most_sites {
         format!(
-            "the lattice holds only {} of {count} particles in the region",
-            out.len() - start
-        ),
-    ))
+            "placed only {placed} of {count} particles in the first {most_sites} lattice sites \
+             (the rest overlap other particles); move the region or the particles in it"
+        )
+    } else {
+        format!("the lattice holds only {placed} of {count} particles in the region")
+    };
+    Err(ctx.err(format!("fill[{i}].count"), message))
 }
+
+/// The most lattice sites a fill visits: this many a particle, and at least
+/// [`LATTICE_SITES_AT_LEAST`]. A fill free of other particles takes about one site a particle;
+/// without a bound, a fill of tiny particles behind a large one went through the sites it
+/// covers (10^24 of them in a fuzzed scene) and never ended.
+const LATTICE_SITES_PER_PARTICLE: u64 = 64;
+
+/// See [`LATTICE_SITES_PER_PARTICLE`]: about a second's sites.
+const LATTICE_SITES_AT_LEAST: u64 = 1 << 24;
 
 /// Where lattice site `site` (counted per axis) lies from the first one, sites `step` apart
 /// per axis: on a square (cubic) lattice; or, with `hex`, odd rows shifted by half a site

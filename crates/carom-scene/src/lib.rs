@@ -14,11 +14,13 @@ mod presets;
 mod raw;
 mod screen;
 mod sections;
+mod state;
 mod walls;
 
 pub use error::SceneError;
 pub use overrides::{check_cells, OverrideError, RunSettings};
 pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
+pub use state::check_state;
 
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::periodic::shortest_period;
@@ -356,14 +358,16 @@ fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     sections::apply_solver(ctx, &raw, &mut config)?;
     let planes = planes::<V>(ctx, &raw, restitution)?;
 
+    // (the periods take the radii as written: checked before the fills, which may take
+    // seconds; a radius out of range is refused by the fills, naming it)
+    if let (Some(d), true) = (domain, wraps) {
+        check_periods(ctx, &d, &periodic, largest_radius(&raw))?;
+    }
     let wrap = domain.and_then(|d| Periodic::new(&d, &periodic));
     let walled = crate::walls::Walled::new(domain, walls.is_some(), periodic);
     let particles = fill::particles::<V>(ctx, &raw, domain, wrap, walled)?;
     let fills: Vec<usize> = raw.fill.iter().map(|f| f.count as usize).collect();
     crate::walls::check_planes(ctx, &planes, &particles, raw.particles.len(), &fills)?;
-    if let (Some(d), true) = (domain, wraps) {
-        check_periods(ctx, &d, &periodic, particles.max_radius())?;
-    }
 
     Ok(Scene {
         name: raw.name,
@@ -402,6 +406,16 @@ fn planes<V: Vector>(
 }
 
 /// Every periodic axis of `domain` longer than [`shortest_period`] for `max_radius`.
+/// The largest radius the scene's particles and fills give, among those in range (each is
+/// checked where it is placed).
+fn largest_radius(raw: &RawScene) -> f64 {
+    let radii = raw.particles.iter().map(|p| p.radius);
+    let radii = radii.chain(raw.fill.iter().map(|f| f.radius));
+    radii
+        .filter(|r| (MIN_POSITIVE..=MAX_MAGNITUDE).contains(r))
+        .fold(0.0, f64::max)
+}
+
 fn check_periods<V: Vector>(
     ctx: &Ctx,
     domain: &Aabb<V>,

@@ -77,34 +77,51 @@ pub struct Outputs {
 }
 
 impl Outputs {
-    /// Checks the paths and intervals before any work.
+    /// Checks the paths and intervals before any work (see [`check_outputs`]).
     pub fn check(&self) -> Result<(), Failure> {
-        if let Some((path, every)) = &self.checkpoint {
-            check_output_path("--checkpoint", path)?;
-            if *every == 0 {
-                return Err(Failure::input("--checkpoint-every: must be at least 1"));
-            }
-        }
-        for (flag, output) in [
-            ("--trajectory", &self.trajectory),
-            ("--observe", &self.observe),
-        ] {
-            if let Some((path, every)) = output {
-                check_output_path(flag, path)?;
-                if *every == 0 {
-                    return Err(Failure::input("--every: must be at least 1"));
-                }
-            }
-        }
-        if let (Some((trajectory, _)), Some((observe, _))) = (&self.trajectory, &self.observe) {
-            if trajectory == observe {
-                return Err(Failure::input(
-                    "--observe: the same file as --trajectory; give each its own",
-                ));
-            }
-        }
-        Ok(())
+        check_outputs(
+            as_flags(&self.checkpoint),
+            as_flags(&self.trajectory),
+            as_flags(&self.observe),
+        )
     }
+}
+
+fn as_flags(output: &Option<(PathBuf, u64)>) -> Option<(&Path, u64)> {
+    output
+        .as_ref()
+        .map(|(path, every)| (path.as_path(), *every))
+}
+
+/// Checks the long-run outputs' paths and intervals, `(path, every)` each, from the flags
+/// alone: before the scene is read, whose fill may take seconds.
+pub fn check_outputs(
+    checkpoint: Option<(&Path, u64)>,
+    trajectory: Option<(&Path, u64)>,
+    observe: Option<(&Path, u64)>,
+) -> Result<(), Failure> {
+    if let Some((path, every)) = checkpoint {
+        check_output_path("--checkpoint", path)?;
+        if every == 0 {
+            return Err(Failure::input("--checkpoint-every: must be at least 1"));
+        }
+    }
+    for (flag, output) in [("--trajectory", trajectory), ("--observe", observe)] {
+        if let Some((path, every)) = output {
+            check_output_path(flag, path)?;
+            if every == 0 {
+                return Err(Failure::input("--every: must be at least 1"));
+            }
+        }
+    }
+    if let (Some((trajectory, _)), Some((observe, _))) = (trajectory, observe) {
+        if trajectory == observe {
+            return Err(Failure::input(
+                "--observe: the same file as --trajectory; give each its own",
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// What the loop saw.

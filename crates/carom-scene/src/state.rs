@@ -1,0 +1,68 @@
+//! The limits a scene file's particles keep, for particles that come from elsewhere: a
+//! checkpoint, whose checksum says that its bytes arrived as written, not that a hand (or
+//! another program) wrote sane values into them.
+
+use crate::{MAX_MAGNITUDE, MIN_POSITIVE};
+use carom_engine::{Particles, Vector};
+
+/// Checks every particle as a scene file's `[[particles]]` are checked: positions and
+/// velocities finite and at most [`MAX_MAGNITUDE`] in each component, radii and masses in
+/// `MIN_POSITIVE..=MAX_MAGNITUDE`. The error names the first particle (by its index in
+/// `particles`) and the value that is not.
+pub fn check_state<V: Vector>(particles: &Particles<V>) -> Result<(), String> {
+    let vectors = [
+        ("position", particles.positions()),
+        ("velocity", particles.velocities()),
+    ];
+    for (what, values) in vectors {
+        for (id, v) in values.iter().enumerate() {
+            for a in 0..V::DIM {
+                let x = v.get(a);
+                if !(x.is_finite() && x.abs() <= MAX_MAGNITUDE) {
+                    return Err(format!(
+                        "particle {id}: {what} {x:?} is not a finite number of magnitude at \
+                         most {MAX_MAGNITUDE:e}"
+                    ));
+                }
+            }
+        }
+    }
+    let sizes = [("radius", particles.radii()), ("mass", particles.masses())];
+    for (what, values) in sizes {
+        for (id, &x) in values.iter().enumerate() {
+            if !(MIN_POSITIVE..=MAX_MAGNITUDE).contains(&x) {
+                return Err(format!(
+                    "particle {id}: {what} {x:?} is not within {MIN_POSITIVE:e}..={MAX_MAGNITUDE:e}"
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use carom_engine::glam::DVec2;
+
+    fn one(x: f64, v: f64, radius: f64, mass: f64) -> Particles<DVec2> {
+        let mut p = Particles::new();
+        let _ = p.push(DVec2::new(x, 0.0), DVec2::new(v, 0.0), radius, mass);
+        p
+    }
+
+    #[test]
+    fn a_state_out_of_range_is_refused_naming_the_particle_and_the_value() {
+        assert!(check_state(&one(1.0, 2.0, 0.5, 1.0)).is_ok());
+        for (bad, what) in [
+            (one(1e300, 0.0, 0.5, 1.0), "position"),
+            (one(0.0, 1e300, 0.5, 1.0), "velocity"),
+            (one(0.0, 0.0, 1e300, 1.0), "radius"),
+            (one(0.0, 0.0, 0.5, 5e-324), "mass"),
+        ] {
+            assert_eq!(bad.len(), 1, "the engine takes the {what}");
+            let e = check_state(&bad).unwrap_err();
+            assert!(e.starts_with(&format!("particle 0: {what} ")), "{e}");
+        }
+    }
+}
