@@ -219,8 +219,20 @@ pub(crate) fn resumed<V: Vector>(
     if cp.dimensions as usize != V::DIM {
         return Err("damaged checkpoint: dimensions disagree with its scene".into());
     }
-    settings.apply_to(&mut scene).map_err(|e| e.to_string())?;
+    for (what, steps) in [
+        ("is at step", cp.steps_taken),
+        ("runs to step", settings.steps),
+    ] {
+        if steps > carom_scene::MAX_STEPS {
+            let limit = carom_scene::MAX_STEPS;
+            return Err(format!(
+                "damaged checkpoint: it {what} {steps}, past the limit of {limit}"
+            ));
+        }
+    }
+    (settings.apply_to(&mut scene)).map_err(|e| format!("damaged run settings: {e}"))?;
     scene.particles = cp.particles().map_err(|e| e.to_string())?;
+    carom_scene::check_state(&scene.particles).map_err(|e| format!("damaged checkpoint: {e}"))?;
     scene
         .into_resumed_world(
             cp.steps_taken,

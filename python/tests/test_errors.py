@@ -1,6 +1,7 @@
 """Every error: one clear message naming the problem, the right exception, nothing written."""
 
 import os
+import struct
 
 import numpy as np
 import pytest
@@ -166,6 +167,53 @@ def test_resume_of_a_damaged_checkpoint(world, tmp_path, cli):
     for damaged in (data[: len(data) // 2], data[:-1] + bytes([data[-1] ^ 1])):
         path.write_bytes(bytes(damaged))
         with pytest.raises(ValueError) as caught:
+            carom.resume(path)
+        done = cli("resume", path, check=False)
+        assert done.returncode == 2
+        assert done.stderr.strip() == f"carom: error: {caught.value}"
+
+
+def test_writes_over_a_named_pipe(world, tmp_path):
+    pipe = tmp_path / "pipe"
+    os.mkfifo(pipe)
+    for write in (world.write_csv, world.checkpoint):
+        with pytest.raises(ValueError, match="not a regular file"):
+            write(pipe)
+    assert only(tmp_path) == ["pipe"] and not pipe.is_file()
+
+
+def with_checksum(body):
+    """A checkpoint's bytes: `body` and its FNV-1a hash (see carom_output::checkpoint)."""
+    h = 0xCBF29CE484222325
+    for byte in body:
+        h = ((h ^ byte) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
+    return bytes(body) + struct.pack("<Q", h)
+
+
+def test_resume_of_a_checkpoint_whose_values_no_scene_may_give(world, tmp_path, cli):
+    """The checksum holds, the values do not: refused as `carom resume` refuses them."""
+    path = tmp_path / "run.ckpt"
+    world.checkpoint(path)
+    body = bytearray(path.read_bytes()[:-8])
+    at = 8 + 4 + 4
+    (steps, n) = struct.unpack_from("<QQ", body, at)
+    at += 16
+    for _ in range(3):  # scene text, origin, run settings
+        (length,) = struct.unpack_from("<Q", body, at)
+        at += 8 + length
+    at += 4 * n  # storage order
+    velocities = at + 8 * 2 * n
+    for offset, value, says in [
+        (velocities, 1e300, "particle 0: velocity"),
+        (16, 1 << 62, "past the limit"),
+    ]:
+        damaged = bytearray(body)
+        if offset == 16:
+            struct.pack_into("<Q", damaged, offset, value)
+        else:
+            struct.pack_into("<d", damaged, offset, value)
+        path.write_bytes(with_checksum(damaged))
+        with pytest.raises(ValueError, match=says) as caught:
             carom.resume(path)
         done = cli("resume", path, check=False)
         assert done.returncode == 2

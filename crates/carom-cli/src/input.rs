@@ -4,7 +4,7 @@
 
 use crate::failure::Failure;
 use carom_engine::Vector;
-use carom_scene::{AnyScene, Scene, MAX_STEPS};
+use carom_scene::{AnyScene, Outline, OverrideError, Scene, MAX_STEPS};
 use std::path::{Path, PathBuf};
 
 /// The TOML text of a scene file, or of a preset (the default one when neither is given), and
@@ -32,14 +32,39 @@ pub fn scene_text(scene: Option<&Path>, preset: Option<&str>) -> Result<(String,
 }
 
 /// The scene a subcommand names, parsed, with its origin and its TOML text (kept in
-/// checkpoints).
+/// checkpoints); `check` sees its [`Outline`] first, before the fills that may take seconds,
+/// and may refuse the command's flags against it.
 pub fn load_scene(
     scene: Option<&Path>,
     preset: Option<&str>,
+    check: impl FnOnce(&Outline) -> Result<(), Failure>,
 ) -> Result<(AnyScene, String, String), Failure> {
     let (text, origin) = scene_text(scene, preset)?;
+    check(&carom_scene::outline(&text, &origin)?)?;
     let parsed = parse_scene(&text, &origin)?;
     Ok((parsed, origin, text))
+}
+
+/// Refuses `--broadphase` and `--cells` that the scene of `outline` cannot take: cells not
+/// one per axis, the unbounded hash on periodic axes (the rest is checked with the scene,
+/// see [`apply_overrides`]).
+pub fn check_overrides(
+    outline: &Outline,
+    broadphase: Option<&str>,
+    cells: Option<&[usize]>,
+) -> Result<(), Failure> {
+    if let Some(cells) = cells.filter(|c| c.len() != outline.dimensions) {
+        let dimensions = outline.dimensions;
+        let cells = cells.to_vec();
+        return Err(overridden(OverrideError::PerAxis { dimensions, cells }));
+    }
+    if broadphase == Some("hash") && outline.periodic {
+        return Err(Failure::input(
+            "--broadphase: the unbounded hash does not support periodic axes, which this \
+             scene has: use the grid (or brute force)",
+        ));
+    }
+    Ok(())
 }
 
 /// [`carom_scene::parse`], with a progress bar while a large scene's fills are placed.

@@ -237,7 +237,13 @@ pub fn render(args: &RenderArgs) -> Result<(), Failure> {
         None
     };
     set_threads(args.threads)?;
-    let (scene, origin, _) = load_scene(args.scene.as_deref(), args.preset.as_deref())?;
+    let mut planned = None;
+    let (scene, origin, _) = load_scene(args.scene.as_deref(), args.preset.as_deref(), |o| {
+        let steps = args.steps.unwrap_or(o.steps);
+        planned = Some(checked_plan(args, format, steps)?);
+        Ok(())
+    })?;
+    let plan = planned.ok_or_else(|| Failure::runtime("the frames were not planned"))?;
     let job = Job {
         args,
         size,
@@ -247,14 +253,12 @@ pub fn render(args: &RenderArgs) -> Result<(), Failure> {
     };
     match scene {
         AnyScene::Two(s) => {
-            let plan = job.plan(args.steps.unwrap_or(s.steps))?;
             let world = s
                 .into_world()
                 .map_err(|e| Failure::input(format!("{}: {e}", job.origin)))?;
             job.run(world, plan)
         }
         AnyScene::Three(s) => {
-            let plan = job.plan(args.steps.unwrap_or(s.steps))?;
             let world = s
                 .into_world()
                 .map_err(|e| Failure::input(format!("{}: {e}", job.origin)))?;
@@ -289,38 +293,39 @@ struct Timing {
     render: f64,
 }
 
-impl Job<'_> {
-    /// The frame plan for a run of `steps`, checked before the world is built.
-    fn plan(&self, steps: u64) -> Result<Plan, Failure> {
-        let plan = plan(self.args, steps)?;
-        if self.format == Format::Png && plan.frames > 1 {
-            return Err(Failure::input(format!(
-                "--every: makes {} frames, and a .png holds one; write a .gif or .mp4",
-                plan.frames
-            )));
-        }
-        if plan.frames > MAX_FRAMES {
-            return Err(Failure::input(format!(
-                "--every: makes {} frames, more than the limit of {MAX_FRAMES}; draw fewer \
-                 (--frames) or farther apart (a larger --every)",
-                plan.frames
-            )));
-        }
-        let last = plan
-            .frames
-            .checked_sub(1)
-            .and_then(|n| n.checked_mul(plan.every))
-            .and_then(|s| s.checked_add(plan.first));
-        match last {
-            Some(last) if last <= MAX_STEPS => Ok(plan),
-            _ => Err(Failure::input(format!(
-                "--frames x --every: {} frames {} steps apart go past the limit of {MAX_STEPS} \
-                 steps",
-                plan.frames, plan.every
-            ))),
-        }
+/// The frame plan for a run of `steps` into `format`, checked before the scene's particles
+/// are placed.
+fn checked_plan(args: &RenderArgs, format: Format, steps: u64) -> Result<Plan, Failure> {
+    let plan = plan(args, steps)?;
+    if format == Format::Png && plan.frames > 1 {
+        return Err(Failure::input(format!(
+            "--every: makes {} frames, and a .png holds one; write a .gif or .mp4",
+            plan.frames
+        )));
     }
+    if plan.frames > MAX_FRAMES {
+        return Err(Failure::input(format!(
+            "--every: makes {} frames, more than the limit of {MAX_FRAMES}; draw fewer \
+                 (--frames) or farther apart (a larger --every)",
+            plan.frames
+        )));
+    }
+    let last = plan
+        .frames
+        .checked_sub(1)
+        .and_then(|n| n.checked_mul(plan.every))
+        .and_then(|s| s.checked_add(plan.first));
+    match last {
+        Some(last) if last <= MAX_STEPS => Ok(plan),
+        _ => Err(Failure::input(format!(
+            "--frames x --every: {} frames {} steps apart go past the limit of {MAX_STEPS} \
+                 steps",
+            plan.frames, plan.every
+        ))),
+    }
+}
 
+impl Job<'_> {
     /// How frames are drawn, from the flags.
     fn options(&self) -> RenderOptions {
         RenderOptions {

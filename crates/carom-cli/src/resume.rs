@@ -1,7 +1,7 @@
 //! `carom resume`: continue a run from its checkpoint, bit for bit, through the same driver as
 //! `carom run`.
 
-use crate::driver::step::Outputs;
+use crate::driver::step::{frame_folder, Outputs};
 use crate::driver::Labels;
 use crate::failure::Failure;
 use crate::input::{check_distinct, check_output_path, check_ranks, check_steps, set_threads};
@@ -59,8 +59,10 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
         ("--trajectory", args.trajectory.as_deref()),
         ("--observe", args.observe.as_deref()),
     ];
+    let frames = args.trajectory.as_deref().and_then(frame_folder);
     let outputs: Vec<(&str, &Path)> = outputs
         .into_iter()
+        .chain([("--trajectory's frame folder", frames.as_deref())])
         .filter_map(|(flag, path)| Some((flag, path?)))
         .collect();
     check_distinct(&outputs, &[])?;

@@ -1,11 +1,11 @@
 //! `carom run` and `carom check`.
 
-use crate::driver::step::Outputs;
+use crate::driver::step::{frame_folder, Outputs};
 use crate::driver::Labels;
 use crate::failure::Failure;
 use crate::input::{
-    apply_overrides, check_cells, check_distinct, check_output_path, check_ranks, check_steps,
-    load_scene, set_threads,
+    apply_overrides, check_cells, check_distinct, check_output_path, check_overrides, check_ranks,
+    check_steps, load_scene, set_threads,
 };
 use crate::launch::{copies_of, run_world};
 use carom_engine::Vector;
@@ -86,7 +86,7 @@ pub enum BroadPhaseArg {
 pub fn check(path: &Path) -> Result<(), Failure> {
     // (RAYON_NUM_THREADS, which the scene's fill would start its threads by)
     set_threads(None)?;
-    let (scene, _, _) = load_scene(Some(path), None)?;
+    let (scene, _, _) = load_scene(Some(path), None, |_| Ok(()))?;
     let (n, world_check) = match &scene {
         AnyScene::Two(s) => (s.particles.len(), s.build_world().map(|_| ())),
         AnyScene::Three(s) => (s.particles.len(), s.build_world().map(|_| ())),
@@ -115,8 +115,10 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         ("--trajectory", args.trajectory.as_deref()),
         ("--observe", args.observe.as_deref()),
     ];
+    let frames = args.trajectory.as_deref().and_then(frame_folder);
     let outputs: Vec<(&str, &Path)> = outputs
         .into_iter()
+        .chain([("--trajectory's frame folder", frames.as_deref())])
         .filter_map(|(flag, path)| Some((flag, path?)))
         .collect();
     let inputs: Vec<(&str, &Path)> = args
@@ -134,11 +136,22 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     if args.ranks.is_some_and(|r| r > 1) && args.observe.is_some() {
         return Err(crate::launch::refuse_split_observe());
     }
-    let (scene, origin, text) = load_scene(args.scene.as_deref(), args.preset.as_deref())?;
+    let (scene, origin, text) = load_scene(args.scene.as_deref(), args.preset.as_deref(), |o| {
+        check_overrides(o, broad_phase_name(args.broadphase), args.cells.as_deref())
+    })?;
     match scene {
         AnyScene::Two(s) => run_scene(s, &origin, text, args),
         AnyScene::Three(s) => run_scene(s, &origin, text, args),
     }
+}
+
+/// `--broadphase`, as the scene names it.
+fn broad_phase_name(broadphase: Option<BroadPhaseArg>) -> Option<&'static str> {
+    broadphase.map(|b| match b {
+        BroadPhaseArg::Brute => "brute",
+        BroadPhaseArg::Grid => "grid",
+        BroadPhaseArg::Hash => "hash",
+    })
 }
 
 fn run_scene<V: Vector>(
@@ -150,11 +163,7 @@ fn run_scene<V: Vector>(
     if let Some(steps) = args.steps {
         scene.steps = steps;
     }
-    let broadphase = args.broadphase.map(|b| match b {
-        BroadPhaseArg::Brute => "brute",
-        BroadPhaseArg::Grid => "grid",
-        BroadPhaseArg::Hash => "hash",
-    });
+    let broadphase = broad_phase_name(args.broadphase);
     apply_overrides(&mut scene, broadphase, args.cells.as_deref())?;
     let outputs = Outputs {
         checkpoint: args.checkpoint.clone().zip(args.checkpoint_every),

@@ -166,6 +166,35 @@ fn resume_keeps_its_checkpoint_to_apart_from_its_other_outputs() {
     );
 }
 
+/// A VTK trajectory `v.pvd` writes its frames in the folder `v`: another output of that
+/// name failed after the run, and a file `v` in the way was reported as `v.pvd`.
+#[test]
+fn a_vtk_trajectory_keeps_its_frame_folder_apart() {
+    let dir = with_scene();
+    let d = dir.path();
+    let vtk = ["run", "scene.toml", "--trajectory", "v.pvd", "--every", "1"];
+    refused_in(
+        d,
+        &[&vtk[..], &["--out", "v"]].concat(),
+        &[],
+        &["--out", "frame folder"],
+    );
+    let ck = ["--checkpoint", "v", "--checkpoint-every", "5"];
+    refused_in(
+        d,
+        &[&vtk[..], &ck[..]].concat(),
+        &[],
+        &["--checkpoint", "frame folder"],
+    );
+    std::fs::write(d.join("v"), "in the way").unwrap();
+    refused_in(
+        d,
+        &vtk,
+        &[],
+        &["--trajectory", "the folder its frames go in"],
+    );
+}
+
 #[test]
 fn bench_refuses_a_plot_of_a_sweep_it_does_not_run_before_running() {
     let dir = tempfile::tempdir().unwrap();
@@ -279,4 +308,22 @@ fn flags_are_checked_before_the_scene_is_filled() {
     ] {
         refused_in(d, &[&full[..], flags].concat(), &[], &[says]);
     }
+    // (and those that need of the scene only what its text says: its axes, its steps)
+    refused_in(
+        d,
+        &["run", "full.toml", "--cells", "5,5,5"],
+        &[],
+        &["--cells", "2D"],
+    );
+    let periodic = scene.replace("walls = true", "periodic = [true, true]");
+    std::fs::write(d.join("wraps.toml"), periodic).unwrap();
+    let hash = ["run", "wraps.toml", "--broadphase", "hash"];
+    refused_in(d, &hash, &[], &["--broadphase", "periodic"]);
+    let render = ["render", "full.toml", "--steps", "10", "--every", "50"];
+    refused_in(
+        d,
+        &[&render[..], &["--out", "r.gif"]].concat(),
+        &[],
+        &["--every"],
+    );
 }

@@ -55,6 +55,13 @@ where
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
+    // (the temporary renamed over a device or a named pipe would put a file in its place)
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        return Err(io::Error::other(format!(
+            "{} is not a regular file (a device or a pipe?)",
+            path.display()
+        )));
+    }
     // (made and registered under one lock: a process exiting at once between the two would
     // leave a temporary nobody removes)
     let (mut tmp, tmp_path) = {
@@ -284,6 +291,26 @@ mod tests {
         assert_eq!(
             std::fs::read_to_string(&target).unwrap(),
             "id,x,y,vx,vy,radius,mass\n0,0,0,1,0,1,1\n"
+        );
+    }
+
+    /// A named pipe (or a device) in place of the target is refused, not replaced by a file.
+    #[cfg(unix)]
+    #[test]
+    fn atomic_write_refuses_a_target_that_is_not_a_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let pipe = dir.path().join("pipe");
+        let made = std::process::Command::new("mkfifo").arg(&pipe).status();
+        if !made.is_ok_and(|s| s.success()) {
+            return eprintln!("no mkfifo: skipped");
+        }
+        let e = write_atomic(&pipe, |w| w.write_all(b"x")).unwrap_err();
+        assert!(e.to_string().contains("not a regular file"), "{e}");
+        assert!(!pipe.is_file(), "the pipe is still a pipe");
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no temporary"
         );
     }
 }

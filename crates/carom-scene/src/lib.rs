@@ -8,6 +8,7 @@
 mod error;
 mod fill;
 pub mod machine;
+mod outline;
 mod overrides;
 mod placement;
 mod presets;
@@ -18,6 +19,7 @@ mod state;
 mod walls;
 
 pub use error::SceneError;
+pub use outline::{outline, Outline};
 pub use overrides::{check_cells, OverrideError, RunSettings};
 pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
 pub use state::check_state;
@@ -313,13 +315,18 @@ impl Ctx<'_> {
     }
 }
 
+/// The scene's `steps`, checked, or [`DEFAULT_STEPS`].
+pub(crate) fn steps_of(ctx: &Ctx, raw: &RawScene) -> Result<u64, SceneError> {
+    match raw.steps {
+        None => Ok(DEFAULT_STEPS),
+        Some(s) if (0..=MAX_STEPS as i64).contains(&s) => Ok(s as u64),
+        Some(s) => Err(ctx.err("steps", format!("must be in 0..={MAX_STEPS}, got {s}"))),
+    }
+}
+
 fn build<V: Vector>(ctx: &Ctx, raw: RawScene) -> Result<Scene<V>, SceneError> {
     let dt = ctx.positive("dt", raw.dt)?;
-    let steps = match raw.steps {
-        None => DEFAULT_STEPS,
-        Some(s) if (0..=MAX_STEPS as i64).contains(&s) => s as u64,
-        Some(s) => return Err(ctx.err("steps", format!("must be in 0..={MAX_STEPS}, got {s}"))),
-    };
+    let steps = steps_of(ctx, &raw)?;
     let gravity = match &raw.gravity {
         Some(g) => ctx.vector::<V>("gravity", g)?,
         None => V::ZERO,

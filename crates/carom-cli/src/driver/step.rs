@@ -93,6 +93,12 @@ fn as_flags(output: &Option<(PathBuf, u64)>) -> Option<(&Path, u64)> {
         .map(|(path, every)| (path.as_path(), *every))
 }
 
+/// The folder a VTK trajectory (`.pvd`) writes its frames in (see [`vtk::Series`]); `None`
+/// for a CSV trajectory.
+pub fn frame_folder(trajectory: &Path) -> Option<PathBuf> {
+    vtk::is_pvd(trajectory).then(|| trajectory.with_extension(""))
+}
+
 /// Checks the long-run outputs' paths and intervals, `(path, every)` each, from the flags
 /// alone: before the scene is read, whose fill may take seconds.
 pub fn check_outputs(
@@ -112,6 +118,14 @@ pub fn check_outputs(
             if every == 0 {
                 return Err(Failure::input("--every: must be at least 1"));
             }
+        }
+    }
+    if let Some(folder) = trajectory.and_then(|(path, _)| frame_folder(path)) {
+        if folder.exists() && !folder.is_dir() {
+            return Err(Failure::input(format!(
+                "--trajectory: {}, the folder its frames go in, is a file",
+                folder.display()
+            )));
         }
     }
     if let (Some((trajectory, _)), Some((observe, _))) = (trajectory, observe) {
