@@ -44,7 +44,8 @@ class World:
     """
 
     def step(self, n: int = 1) -> Dict[str, Union[int, float]]:
-        """Advance by `n` time steps (`n * dt` time units), as `carom run` does.
+        """Advance by `n` time steps (`n * dt` time units), as `carom run` does. `n` is an int
+        >= 0 (not a bool), at most 10^12 steps in all (the limit of `carom run --steps`).
 
         Returns what the steps saw, summed as `carom run`'s summary sums it: `steps`,
         `capped_steps` (velocity sweeps stopped at their cap), `retaken_steps` (taken again
@@ -106,7 +107,8 @@ class World:
     def contacts(self) -> npt.NDArray[np.int64]:
         """The last step's touching pairs, shape (M, 2), ids `a < b`, sorted: those the
         lecture's detection finds overlapping (`distance < r1 + r2`) at the start of the
-        step's velocity phase. (0, 2) before the first step; islands asleep are not listed."""
+        step's velocity phase. (0, 2) before the first step. Pairs of sleeping particles are the remembered resting
+        contacts that overlap."""
     def deepest_overlap(self) -> float:
         """The deepest particle-particle overlap in the state as it is, over every pair, as a
         fraction of the smaller radius (0.0 when nothing overlaps); what `carom run` prints

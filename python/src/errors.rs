@@ -54,7 +54,7 @@ pub(crate) fn check_output_path(path: &Path) -> PyResult<()> {
         )));
     }
     if path.exists() && !path.is_file() {
-        return Err(PyValueError::new_err(format!(
+        return Err(PyOSError::new_err(format!(
             "cannot write {}: it is not a regular file (a device or a pipe?), which the file \
              written whole and renamed into place would replace",
             path.display()

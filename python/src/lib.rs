@@ -41,7 +41,7 @@ use world::*;
 #[pyfunction]
 fn load(py: Python<'_>, path: PathBuf) -> PyResult<World> {
     let origin = path.display().to_string();
-    let text = std::fs::read_to_string(&path)
+    let text = carom_output::read_regular_text(&path)
         .map_err(|e| os_error("cannot read scene file", &e, &path))?;
     build(py, text, origin)
 }
@@ -85,7 +85,7 @@ fn presets(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
 #[pyfunction]
 fn resume(py: Python<'_>, checkpoint_path: PathBuf) -> PyResult<World> {
     let shown = checkpoint_path.display().to_string();
-    let bytes = std::fs::read(&checkpoint_path)
+    let bytes = carom_output::read_regular_file(&checkpoint_path)
         .map_err(|e| os_error("cannot read checkpoint", &e, &checkpoint_path))?;
     let cp = Checkpoint::read_from(&bytes)
         .map_err(|e| PyValueError::new_err(format!("{shown}: {e}")))?;

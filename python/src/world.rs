@@ -10,9 +10,9 @@ use carom_output::checkpoint::Checkpoint;
 use carom_scene::RunSettings;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBool, PyDict};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard, TryLockError};
@@ -247,6 +247,10 @@ pub(crate) fn resumed<V: Vector>(
 impl World {
     /// Advance the world by `n` time steps (`n * dt` time units), as `carom run` does.
     ///
+    /// `n`: an int >= 0 (not a bool), and at most 10^12 steps in all, the limit of
+    /// `carom run --steps`; ValueError otherwise. So is a `RAYON_NUM_THREADS` above the
+    /// limit `carom` refuses it at (8 per core, at least 64).
+    ///
     /// The GIL is released while the engine works, so other Python threads run meanwhile.
     /// In the main thread, Ctrl-C (KeyboardInterrupt, or any exception a signal handler
     /// raises) stops the loop between two steps, within 50 ms or one step: the exception
@@ -261,15 +265,38 @@ impl World {
     /// `deepest_overlap` for the state as it is), `asleep` (int: particles asleep in the
     /// last step) and `pushing` (int: particle pairs that pushed each other in the last step,
     /// impacts and contacts carrying weight, overlapping or a hair apart).
-    #[pyo3(signature = (n = 1))]
-    fn step<'py>(&self, py: Python<'py>, n: i64) -> PyResult<Bound<'py, PyDict>> {
+    #[pyo3(signature = (n = None), text_signature = "($self, n=1)")]
+    fn step<'py>(
+        &self,
+        py: Python<'py>,
+        n: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let n: i64 = match n {
+            None => 1,
+            // (a bool is an int to Python: `step(True)` is a slip, not a count)
+            Some(n) if n.is_instance_of::<PyBool>() => {
+                return Err(PyTypeError::new_err(
+                    "n: the number of steps must be an int, got a bool",
+                ));
+            }
+            Some(n) => n.extract()?,
+        };
         if n < 0 {
             return Err(PyValueError::new_err(format!(
                 "n: the number of steps must be >= 0, got {n}"
             )));
         }
+        check_thread_environment()?;
         let mut guard = self.lock()?;
         let state: &mut State = &mut guard;
+        let taken = with_world!(&state.world, w => w.steps_taken());
+        let limit = carom_scene::MAX_STEPS;
+        if taken.saturating_add(n as u64) > limit {
+            return Err(PyValueError::new_err(format!(
+                "n: {n} steps from step {taken} go past the limit of {limit} steps (that of \
+                 `carom run --steps`)"
+            )));
+        }
         let mut left = n as u64;
         let mut seen = Seen::default();
         while left > 0 {
@@ -470,6 +497,17 @@ impl World {
     /// notes in the README), as with the viewer's pushes.
     fn set_velocities(&self, py: Python<'_>, velocities: &Bound<'_, PyAny>) -> PyResult<()> {
         let numpy = py.import("numpy")?;
+        // (numbers only: numpy would read complex numbers, dates, bools and strings as floats)
+        let kind: String = numpy
+            .call_method1("asarray", (velocities,))
+            .and_then(|a| a.getattr("dtype")?.getattr("kind")?.extract())
+            .unwrap_or_else(|_| "f".into());
+        if !matches!(kind.as_str(), "f" | "i" | "u") {
+            return Err(PyValueError::new_err(format!(
+                "velocities: must be real numbers (float or int), got an array of numpy kind \
+                 '{kind}'"
+            )));
+        }
         let kwargs = PyDict::new(py);
         kwargs.set_item("dtype", numpy.getattr("float64")?)?;
         let array = numpy
@@ -516,6 +554,15 @@ impl World {
                 "velocities: must be finite; row {id} (particle {id}) is {row:?}"
             )));
         }
+        let most = carom_scene::MAX_MAGNITUDE;
+        if let Some((id, row)) =
+            (rows.iter().enumerate()).find(|(_, r)| r.iter().any(|x| x.abs() > most))
+        {
+            return Err(PyValueError::new_err(format!(
+                "velocities: row {id} (particle {id}) is {row:?}, beyond carom's range of {most:e} \
+                 a component (a scene's velocities keep to it too)"
+            )));
+        }
         let result = with_world!(&mut state.world, w => {
             let mut result = Ok(());
             for (id, row) in rows.iter().enumerate() {
@@ -539,6 +586,7 @@ impl World {
         check_output_path(&path)?;
         let mut guard = self.lock()?;
         let state: &mut State = &mut guard;
+        check_not_the_scene(&path, &state.meta)?;
         let target = path.clone();
         let world = &mut state.world;
         py.detach(move || {
@@ -559,10 +607,41 @@ impl World {
         check_output_path(&path)?;
         let mut guard = self.lock()?;
         let state: &mut State = &mut guard;
+        check_not_the_scene(&path, &state.meta)?;
         let cp = with_world!(&state.world, w => checkpoint_of(w, &state.meta))
             .map_err(PyRuntimeError::new_err)?;
         let target = path.clone();
         py.detach(move || carom_output::write_atomic(&target, |out| cp.write_to(out)))
             .map_err(|e| os_error("cannot write checkpoint", &e, &path))
+    }
+}
+
+/// Refuses an output `path` that is the scene file the world was read from (what `carom run`
+/// refuses for its outputs).
+fn check_not_the_scene(path: &std::path::Path, meta: &Meta) -> PyResult<()> {
+    let scene = std::path::Path::new(&meta.origin);
+    if scene.is_file() && carom_output::same_file(path, scene) {
+        return Err(PyValueError::new_err(format!(
+            "cannot write {}: it is the scene file this world was read from, which this would \
+             overwrite",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses a `RAYON_NUM_THREADS` above the limit `carom` refuses it at (see
+/// `carom_scene::machine::thread_limit`), before the first parallel step starts that many.
+fn check_thread_environment() -> PyResult<()> {
+    let Ok(value) = std::env::var("RAYON_NUM_THREADS") else {
+        return Ok(());
+    };
+    let limit = carom_scene::machine::thread_limit();
+    match value.trim().parse::<usize>() {
+        Ok(n) if n > limit => Err(PyValueError::new_err(format!(
+            "RAYON_NUM_THREADS: {n} is more than the limit of {limit} on this machine (8 per \
+             core, at least 64)"
+        ))),
+        _ => Ok(()),
     }
 }

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import carom
-from conftest import assert_same_state
+from conftest import SCENES, assert_same_state
 
 BAD_FIELD = """
 dimensions = 2
@@ -90,7 +90,7 @@ def world():
         (np.zeros(200), r"needs shape \(100, 2\) .*got \(200,\)"),
         (np.zeros((100, 2, 1)), r"needs shape \(100, 2\) .*got \(100, 2, 1\)"),
         (5.0, r"needs shape \(100, 2\) .*got \(\)"),
-        ([["a", "b"]] * 100, r"cannot be read as an array of float64"),
+        ([["a", "b"]] * 100, r"must be real numbers .* numpy kind 'U'"),
     ],
 )
 def test_set_velocities_refuses_wrong_shapes(world, value, message):
@@ -177,9 +177,60 @@ def test_writes_over_a_named_pipe(world, tmp_path):
     pipe = tmp_path / "pipe"
     os.mkfifo(pipe)
     for write in (world.write_csv, world.checkpoint):
-        with pytest.raises(ValueError, match="not a regular file"):
+        with pytest.raises(OSError, match="not a regular file"):
             write(pipe)
     assert only(tmp_path) == ["pipe"] and not pipe.is_file()
+
+
+def test_step_refuses_a_bool_and_counts_past_the_limit(world):
+    with pytest.raises(TypeError, match="bool"):
+        world.step(True)
+    with pytest.raises(ValueError, match="past the limit of 1000000000000 steps"):
+        world.step(10**12)
+    assert world.steps == 5
+
+
+def test_step_refuses_a_thread_count_carom_refuses(world, monkeypatch):
+    monkeypatch.setenv("RAYON_NUM_THREADS", "100000")
+    with pytest.raises(ValueError, match="RAYON_NUM_THREADS: 100000 is more than the limit"):
+        world.step(1)
+    assert world.steps == 5
+
+
+@pytest.mark.parametrize(
+    "value,message",
+    [
+        (1 + 5j, "numpy kind 'c'"),
+        (np.datetime64("2020-01-01", "D"), "numpy kind 'M'"),
+        (True, "numpy kind 'b'"),
+        ("7", "numpy kind 'U'"),
+        (1e16, "beyond carom's range"),
+    ],
+)
+def test_set_velocities_refuses_what_is_not_a_velocity(world, value, message):
+    before = world.velocities
+    with pytest.raises(ValueError, match=message):
+        world.set_velocities(np.full((len(world), 2), value))
+    assert np.array_equal(world.velocities, before)
+
+
+def test_writes_over_the_scene_file(tmp_path):
+    scene = tmp_path / "scene.toml"
+    text = (SCENES / "lecture_100_k05.toml").read_text()
+    scene.write_text(text)
+    world = carom.load(scene)
+    for write in (world.write_csv, world.checkpoint):
+        with pytest.raises(ValueError, match="the scene file this world was read from"):
+            write(scene)
+    assert scene.read_text() == text
+
+
+def test_load_and_resume_of_a_named_pipe(tmp_path):
+    pipe = tmp_path / "pipe"
+    os.mkfifo(pipe)
+    for read in (carom.load, carom.resume):
+        with pytest.raises(OSError, match="not a regular file"):
+            read(pipe)
 
 
 def with_checksum(body):

@@ -5,7 +5,7 @@
 use crate::failure::Failure;
 use carom_engine::Vector;
 use carom_scene::{AnyScene, Outline, OverrideError, Scene, MAX_STEPS};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The TOML text of a scene file, or of a preset (the default one when neither is given), and
 /// where it came from. Shared by every subcommand that takes `[SCENE] [--preset NAME]`.
@@ -13,7 +13,7 @@ pub fn scene_text(scene: Option<&Path>, preset: Option<&str>) -> Result<(String,
     match scene {
         Some(path) => {
             let origin = path.display().to_string();
-            let text = std::fs::read_to_string(path)
+            let text = carom_output::read_regular_text(path)
                 .map_err(|e| Failure::input(format!("{origin}: cannot read scene file: {e}")))?;
             Ok((text, origin))
         }
@@ -32,15 +32,15 @@ pub fn scene_text(scene: Option<&Path>, preset: Option<&str>) -> Result<(String,
 }
 
 /// The scene a subcommand names, parsed, with its origin and its TOML text (kept in
-/// checkpoints); `check` sees its [`Outline`] first, before the fills that may take seconds,
-/// and may refuse the command's flags against it.
+/// checkpoints); `check` sees its [`Outline`] and origin first, before the fills that may
+/// take seconds, and may refuse the command's flags against it.
 pub fn load_scene(
     scene: Option<&Path>,
     preset: Option<&str>,
-    check: impl FnOnce(&Outline) -> Result<(), Failure>,
+    check: impl FnOnce(&Outline, &str) -> Result<(), Failure>,
 ) -> Result<(AnyScene, String, String), Failure> {
     let (text, origin) = scene_text(scene, preset)?;
-    check(&carom_scene::outline(&text, &origin)?)?;
+    check(&carom_scene::outline(&text, &origin)?, &origin)?;
     let parsed = parse_scene(&text, &origin)?;
     Ok((parsed, origin, text))
 }
@@ -49,7 +49,7 @@ pub fn load_scene(
 /// one per axis, the unbounded hash on periodic axes (the rest is checked with the scene,
 /// see [`apply_overrides`]).
 pub fn check_overrides(
-    outline: &Outline,
+    (outline, origin): (&Outline, &str),
     broadphase: Option<&str>,
     cells: Option<&[usize]>,
 ) -> Result<(), Failure> {
@@ -59,10 +59,10 @@ pub fn check_overrides(
         return Err(overridden(OverrideError::PerAxis { dimensions, cells }));
     }
     if broadphase == Some("hash") && outline.periodic {
-        return Err(Failure::input(
-            "--broadphase: the unbounded hash does not support periodic axes, which this \
-             scene has: use the grid (or brute force)",
-        ));
+        return Err(Failure::input(format!(
+            "{origin}: --broadphase: the unbounded hash does not support periodic axes, which \
+             the scene has: use the grid (or brute force)"
+        )));
     }
     Ok(())
 }
@@ -87,13 +87,7 @@ pub fn parse_scene(text: &str, origin: &str) -> Result<AnyScene, carom_scene::Sc
 /// random packing takes seconds.
 const FILL_PROGRESS_FROM: u64 = 100_000;
 
-/// The most worker threads, and thread ranks, a command may start: 8 per core, and at least
-/// 64 on any machine. Results are the same for every count; more threads than cores only wait
-/// for each other, and a typo (`--threads 100000`) would keep the machine busy for minutes
-/// creating them.
-pub fn thread_limit() -> usize {
-    (8 * carom_scene::machine::cores()).max(64)
-}
+pub use carom_scene::machine::thread_limit;
 
 fn check_count(flag: &str, count: usize) -> Result<(), Failure> {
     let limit = thread_limit();
@@ -241,45 +235,12 @@ pub fn check_output_path(flag: &str, out: &Path) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The file a path names, for comparing paths: its folder resolved (links, `..`), its name as
-/// given, or the whole path resolved when it exists (a link to the file is the file). `None`
-/// when the folder does not exist (then [`check_output_path`] refuses it).
-fn file_identity(path: &Path) -> Option<PathBuf> {
-    if let Ok(resolved) = path.canonicalize() {
-        return Some(resolved);
-    }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    Some(dir.canonicalize().ok()?.join(path.file_name()?))
-}
-
-/// Whether `a` and `b` name one file: the same [`file_identity`], or, both existing, the same
-/// file on the same device under two names (a hard link).
-fn same_file(a: &Path, b: &Path) -> bool {
-    let (Some(id_a), Some(id_b)) = (file_identity(a), file_identity(b)) else {
-        return false;
-    };
-    if id_a == id_b {
-        return true;
-    }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt;
-        if let (Ok(a), Ok(b)) = (std::fs::metadata(a), std::fs::metadata(b)) {
-            return (a.dev(), a.ino()) == (b.dev(), b.ino());
-        }
-    }
-    false
-}
-
 /// Refuses two outputs naming the same file, and an output naming one of the `inputs` (the
 /// scene or checkpoint being read, which it would overwrite).
 pub fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), Failure> {
     for (i, (flag, path)) in outputs.iter().enumerate() {
         for (other, other_path) in &outputs[..i] {
-            if same_file(path, other_path) {
+            if carom_output::same_file(path, other_path) {
                 return Err(Failure::input(format!(
                     "{flag}: {} is also the file of {other}; give each its own",
                     path.display()
@@ -287,7 +248,7 @@ pub fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Re
             }
         }
         for (what, input) in inputs {
-            if same_file(path, input) {
+            if carom_output::same_file(path, input) {
                 return Err(Failure::input(format!(
                     "{flag}: {} is the {what} being read, which this would overwrite",
                     path.display()

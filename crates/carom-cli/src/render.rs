@@ -238,7 +238,7 @@ pub fn render(args: &RenderArgs) -> Result<(), Failure> {
     };
     set_threads(args.threads)?;
     let mut planned = None;
-    let (scene, origin, _) = load_scene(args.scene.as_deref(), args.preset.as_deref(), |o| {
+    let (scene, origin, _) = load_scene(args.scene.as_deref(), args.preset.as_deref(), |o, _| {
         let steps = args.steps.unwrap_or(o.steps);
         planned = Some(checked_plan(args, format, steps)?);
         Ok(())

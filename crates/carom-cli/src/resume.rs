@@ -81,7 +81,7 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
         return Err(crate::launch::refuse_split_observe());
     }
     let shown = args.checkpoint.display().to_string();
-    let bytes = std::fs::read(&args.checkpoint)
+    let bytes = carom_output::read_regular_file(&args.checkpoint)
         .map_err(|e| Failure::input(format!("{shown}: cannot read checkpoint: {e}")))?;
     let cp = Checkpoint::read_from(&bytes).map_err(|source| Failure::Checkpoint {
         path: shown.clone(),

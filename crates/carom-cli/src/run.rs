@@ -86,7 +86,7 @@ pub enum BroadPhaseArg {
 pub fn check(path: &Path) -> Result<(), Failure> {
     // (RAYON_NUM_THREADS, which the scene's fill would start its threads by)
     set_threads(None)?;
-    let (scene, _, _) = load_scene(Some(path), None, |_| Ok(()))?;
+    let (scene, _, _) = load_scene(Some(path), None, |_, _| Ok(()))?;
     let (n, world_check) = match &scene {
         AnyScene::Two(s) => (s.particles.len(), s.build_world().map(|_| ())),
         AnyScene::Three(s) => (s.particles.len(), s.build_world().map(|_| ())),
@@ -136,9 +136,14 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     if args.ranks.is_some_and(|r| r > 1) && args.observe.is_some() {
         return Err(crate::launch::refuse_split_observe());
     }
-    let (scene, origin, text) = load_scene(args.scene.as_deref(), args.preset.as_deref(), |o| {
-        check_overrides(o, broad_phase_name(args.broadphase), args.cells.as_deref())
-    })?;
+    let (scene, origin, text) = load_scene(
+        args.scene.as_deref(),
+        args.preset.as_deref(),
+        |o, origin| {
+            let broadphase = broad_phase_name(args.broadphase);
+            check_overrides((o, origin), broadphase, args.cells.as_deref())
+        },
+    )?;
     match scene {
         AnyScene::Two(s) => run_scene(s, &origin, text, args),
         AnyScene::Three(s) => run_scene(s, &origin, text, args),

@@ -121,6 +121,9 @@ fn an_output_that_is_not_a_regular_file_is_refused() {
         &["--out", "not a regular file"],
     );
     assert!(!d.join("pipe").is_file(), "the pipe is still a pipe");
+    // (read as a scene or a checkpoint, it waited for a writer for good)
+    refused_in(d, &["check", "pipe"], &[], &["pipe", "not a regular file"]);
+    refused_in(d, &["resume", "pipe"], &[], &["pipe", "not a regular file"]);
 }
 
 #[test]

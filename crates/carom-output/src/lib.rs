@@ -13,6 +13,61 @@ use carom_engine::{Particles, Vector};
 use std::io::{self, BufWriter, Write};
 use std::path::Path;
 
+/// The file a path names, for comparing paths: the whole path resolved when it exists (a
+/// link to a file is the file), else its folder resolved (links, `..`) and its name as given.
+/// `None` when the folder does not exist.
+fn file_identity(path: &Path) -> Option<std::path::PathBuf> {
+    if let Ok(resolved) = path.canonicalize() {
+        return Some(resolved);
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    Some(dir.canonicalize().ok()?.join(path.file_name()?))
+}
+
+/// Whether `a` and `b` name one file: the same path once resolved (see `file_identity`), or,
+/// both existing, the same file on the same device under two names (a hard link). What every
+/// output is compared with the inputs and the other outputs by, so that none overwrites them.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    let (Some(id_a), Some(id_b)) = (file_identity(a), file_identity(b)) else {
+        return false;
+    };
+    if id_a == id_b {
+        return true;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(a), Ok(b)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return (a.dev(), a.ino()) == (b.dev(), b.ino());
+        }
+    }
+    false
+}
+
+/// The bytes of the file at `path`, refusing anything but a regular file: a named pipe with
+/// no writer would block the read for good (and a device may never end).
+pub fn read_regular_file(path: &Path) -> io::Result<Vec<u8>> {
+    // (before opening it: opening a named pipe to read waits for a writer)
+    // (a folder is left to the read, whose error says so with its errno)
+    let kind = std::fs::metadata(path)?;
+    if !kind.is_file() && !kind.is_dir() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "not a regular file (a device or a pipe?)",
+        ));
+    }
+    std::fs::read(path)
+}
+
+/// [`read_regular_file`] as UTF-8 text.
+pub fn read_regular_text(path: &Path) -> io::Result<String> {
+    String::from_utf8(read_regular_file(path)?)
+        .map_err(|_| io::Error::new(io::ErrorKind::InvalidData, "not UTF-8 text"))
+}
+
 /// How the writers of a long run ([`vtk::Series`]) touch their files: whole files through
 /// [`write_atomic`] and small writes into an open file as they are. The command line wraps both
 /// so that a second Ctrl-C, which exits at once, can neither leave a file half done nor see a

@@ -27,6 +27,14 @@ pub fn cpu_model() -> Option<String> {
     Some(line.split_once(':')?.1.trim().to_string())
 }
 
+/// The most worker threads (and thread ranks) a command or the Python module may start: 8
+/// per core, and at least 64 on any machine. Results are the same for every count; more
+/// threads than cores only wait for each other, and a typo (`--threads 100000`) would keep
+/// the machine busy for minutes creating them.
+pub fn thread_limit() -> usize {
+    (8 * cores()).max(64)
+}
+
 /// Cores this process may use (1 when the system does not say).
 pub fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
