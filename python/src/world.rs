@@ -232,7 +232,9 @@ pub(crate) fn resumed<V: Vector>(
     }
     (settings.apply_to(&mut scene)).map_err(|e| format!("damaged run settings: {e}"))?;
     scene.particles = cp.particles().map_err(|e| e.to_string())?;
-    carom_scene::check_state(&scene.particles).map_err(|e| format!("damaged checkpoint: {e}"))?;
+    carom_scene::check_state(&scene.particles)
+        .and_then(|()| carom_scene::check_remembered(&cp.contact_impulses(), &cp.tally))
+        .map_err(|e| format!("damaged checkpoint: {e}"))?;
     scene
         .into_resumed_world(
             cp.steps_taken,

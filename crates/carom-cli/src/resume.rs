@@ -154,6 +154,7 @@ fn resume_scene<V: Vector>(
         .particles()
         .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
     carom_scene::check_state(&scene.particles)
+        .and_then(|()| carom_scene::check_remembered(&cp.contact_impulses(), &cp.tally))
         .map_err(|e| Failure::input(format!("{shown}: damaged checkpoint: {e}")))?;
     let name = scene.name.clone();
     let run = Labels {

@@ -262,7 +262,7 @@ fn a_checkpoint_with_values_no_scene_may_give_is_refused() {
     let d = dir.path();
     let good = Checkpoint::read_from(&std::fs::read(d.join("ck.bin")).unwrap()).unwrap();
     type Damage = fn(&mut Checkpoint);
-    let damages: [(&str, Damage, &str); 5] = [
+    let damages: [(&str, Damage, &str); 6] = [
         ("velocity", |c| c.velocities[0] = 1e300, "velocity"),
         ("radius", |c| c.radii[1] = 1e300, "radius"),
         ("mass", |c| c.masses[1] = 5e-324, "mass"),
@@ -272,6 +272,7 @@ fn a_checkpoint_with_values_no_scene_may_give_is_refused() {
             |c| c.settings_json = c.settings_json.replace("null", "\"octree\""),
             "run settings",
         ),
+        ("tally", |c| c.tally.thermal = f64::NAN, "thermal"),
     ];
     for (name, damage, says) in damages {
         let mut cp = good.clone();

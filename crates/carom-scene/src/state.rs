@@ -3,7 +3,7 @@
 //! another program) wrote sane values into them.
 
 use crate::{MAX_MAGNITUDE, MIN_POSITIVE};
-use carom_engine::{Particles, Vector};
+use carom_engine::{ContactImpulses, Particles, Tally, Vector};
 
 /// The largest position or velocity component a state may hold: a run may carry particles
 /// beyond a scene's [`MAX_MAGNITUDE`] (a scene at its limits does, falling for a few steps),
@@ -46,6 +46,46 @@ pub fn check_state<V: Vector>(particles: &Particles<V>) -> Result<(), String> {
     Ok(())
 }
 
+/// Checks what a state remembers besides its particles: the resting impulses finite, above 0
+/// and at most [`MAX_STATE_MAGNITUDE`] (an impulse of 1e300 made the next step's energy
+/// infinite), the rest times finite and not negative, and the observables' sums finite, the
+/// time and the thermal sum not negative, the collisions below 2^63 (so that no run can wrap
+/// the count).
+pub fn check_remembered(impulses: &ContactImpulses, tally: &Tally) -> Result<(), String> {
+    let kept = |x: f64| x.is_finite() && x > 0.0 && x <= MAX_STATE_MAGNITUDE;
+    for (what, list) in [("pair", &impulses.pairs), ("plane", &impulses.planes)] {
+        if let Some(&(a, b, x)) = list.iter().find(|&&(_, _, x)| !kept(x)) {
+            return Err(format!(
+                "the remembered {what} impulse ({a}, {b}) is {x:?}, not a finite number in \
+                 (0, {MAX_STATE_MAGNITUDE:e}]"
+            ));
+        }
+    }
+    if let Some((id, t)) =
+        (impulses.rest.iter().enumerate()).find(|(_, t)| !(t.is_finite() && **t >= 0.0))
+    {
+        return Err(format!("particle {id}: a rest time of {t:?}"));
+    }
+    let sums = [
+        ("virial", tally.virial, f64::NEG_INFINITY),
+        ("thermal", tally.thermal, 0.0),
+        ("interval", tally.interval, 0.0),
+    ];
+    if let Some((what, x, _)) = sums
+        .iter()
+        .find(|(_, x, least)| !(x.is_finite() && x >= least))
+    {
+        return Err(format!("the observables' {what} sum is {x:?}"));
+    }
+    if tally.collisions >= 1 << 63 {
+        return Err(format!(
+            "the observables' collision count is {}",
+            tally.collisions
+        ));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -72,5 +112,23 @@ mod tests {
             let e = check_state(&bad).unwrap_err();
             assert!(e.starts_with(&format!("particle 0: {what} ")), "{e}");
         }
+    }
+
+    #[test]
+    fn remembered_values_out_of_range_are_refused() {
+        let (mut impulses, mut tally) = (ContactImpulses::default(), Tally::default());
+        impulses.pairs.push((0, 1, 2.5));
+        assert!(check_remembered(&impulses, &tally).is_ok());
+        impulses.pairs[0].2 = 1e300;
+        let e = check_remembered(&impulses, &tally).unwrap_err();
+        assert!(e.contains("pair impulse (0, 1)"), "{e}");
+        impulses.pairs.clear();
+        tally.thermal = f64::NAN;
+        let e = check_remembered(&impulses, &tally).unwrap_err();
+        assert!(e.contains("thermal"), "{e}");
+        tally.thermal = 0.0;
+        tally.collisions = u64::MAX;
+        let e = check_remembered(&impulses, &tally).unwrap_err();
+        assert!(e.contains("collision count"), "{e}");
     }
 }
