@@ -33,8 +33,8 @@ pub(crate) fn os_error(what: &str, error: &std::io::Error, path: &Path) -> PyErr
     }
 }
 
-/// Refuses an output path whose folder is missing, or which is a folder itself or anything but
-/// a regular file (what the CLI checks before a run).
+/// Refuses an output path whose folder is missing or which is a folder itself (what the CLI
+/// checks before a run; a device or a pipe is refused by `carom_output::write_atomic`).
 pub(crate) fn check_output_path(path: &Path) -> PyResult<()> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
@@ -50,13 +50,6 @@ pub(crate) fn check_output_path(path: &Path) -> PyResult<()> {
     if path.is_dir() {
         return Err(PyIsADirectoryError::new_err(format!(
             "cannot write {}: it is a folder",
-            path.display()
-        )));
-    }
-    if path.exists() && !path.is_file() {
-        return Err(PyOSError::new_err(format!(
-            "cannot write {}: it is not a regular file (a device or a pipe?), which the file \
-             written whole and renamed into place would replace",
             path.display()
         )));
     }

@@ -219,17 +219,8 @@ pub(crate) fn resumed<V: Vector>(
     if cp.dimensions as usize != V::DIM {
         return Err("damaged checkpoint: dimensions disagree with its scene".into());
     }
-    for (what, steps) in [
-        ("is at step", cp.steps_taken),
-        ("runs to step", settings.steps),
-    ] {
-        if steps > carom_scene::MAX_STEPS {
-            let limit = carom_scene::MAX_STEPS;
-            return Err(format!(
-                "damaged checkpoint: it {what} {steps}, past the limit of {limit}"
-            ));
-        }
-    }
+    carom_scene::check_stored_steps(cp.steps_taken, settings.steps)
+        .map_err(|e| format!("damaged checkpoint: {e}"))?;
     (settings.apply_to(&mut scene)).map_err(|e| format!("damaged run settings: {e}"))?;
     scene.particles = cp.particles().map_err(|e| e.to_string())?;
     carom_scene::check_state(&scene.particles)
@@ -635,12 +626,9 @@ fn check_not_the_scene(path: &std::path::Path, meta: &Meta) -> PyResult<()> {
 /// Refuses a `RAYON_NUM_THREADS` above the limit `carom` refuses it at (see
 /// `carom_scene::machine::thread_limit`), before the first parallel step starts that many.
 fn check_thread_environment() -> PyResult<()> {
-    let Ok(value) = std::env::var("RAYON_NUM_THREADS") else {
-        return Ok(());
-    };
     let limit = carom_scene::machine::thread_limit();
-    match value.trim().parse::<usize>() {
-        Ok(n) if n > limit => Err(PyValueError::new_err(format!(
+    match carom_scene::machine::threads_from_environment() {
+        Some(n) if n > limit => Err(PyValueError::new_err(format!(
             "RAYON_NUM_THREADS: {n} is more than the limit of {limit} on this machine (8 per \
              core, at least 64)"
         ))),

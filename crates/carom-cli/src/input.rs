@@ -32,17 +32,17 @@ pub fn scene_text(scene: Option<&Path>, preset: Option<&str>) -> Result<(String,
 }
 
 /// The scene a subcommand names, parsed, with its origin and its TOML text (kept in
-/// checkpoints); `check` sees its [`Outline`] and origin first, before the fills that may
-/// take seconds, and may refuse the command's flags against it.
-pub fn load_scene(
+/// checkpoints), and what `check` made of its [`Outline`] and origin: `check` sees them first,
+/// before the fills that may take seconds, and may refuse the command's flags against them.
+pub fn load_scene<T>(
     scene: Option<&Path>,
     preset: Option<&str>,
-    check: impl FnOnce(&Outline, &str) -> Result<(), Failure>,
-) -> Result<(AnyScene, String, String), Failure> {
+    check: impl FnOnce(&Outline, &str) -> Result<T, Failure>,
+) -> Result<(AnyScene, String, String, T), Failure> {
     let (text, origin) = scene_text(scene, preset)?;
-    check(&carom_scene::outline(&text, &origin)?, &origin)?;
+    let checked = check(&carom_scene::outline(&text, &origin)?, &origin)?;
     let parsed = parse_scene(&text, &origin)?;
-    Ok((parsed, origin, text))
+    Ok((parsed, origin, text, checked))
 }
 
 /// Refuses `--broadphase` and `--cells` that the scene of `outline` cannot take: cells not
@@ -109,16 +109,11 @@ pub fn check_threads(threads: Option<usize>) -> Result<(), Failure> {
     if let Some(threads) = threads {
         return check_count("--threads", threads);
     }
-    // rayon reads RAYON_NUM_THREADS itself (0 or not a number: one per core); a typo there is
-    // as bad as one in --threads
-    if let Ok(value) = std::env::var("RAYON_NUM_THREADS") {
-        if let Ok(n) = value.trim().parse::<usize>() {
-            if n > 0 {
-                check_count("RAYON_NUM_THREADS", n)?;
-            }
-        }
+    // (a typo in RAYON_NUM_THREADS is as bad as one in --threads)
+    match carom_scene::machine::threads_from_environment() {
+        Some(n) => check_count("RAYON_NUM_THREADS", n),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// Sets the global thread count (`--threads`, else `RAYON_NUM_THREADS`), refusing 0 and more

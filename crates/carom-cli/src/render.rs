@@ -237,13 +237,10 @@ pub fn render(args: &RenderArgs) -> Result<(), Failure> {
         None
     };
     set_threads(args.threads)?;
-    let mut planned = None;
-    let (scene, origin, _) = load_scene(args.scene.as_deref(), args.preset.as_deref(), |o, _| {
-        let steps = args.steps.unwrap_or(o.steps);
-        planned = Some(checked_plan(args, format, steps)?);
-        Ok(())
-    })?;
-    let plan = planned.ok_or_else(|| Failure::runtime("the frames were not planned"))?;
+    let (scene, origin, _, plan) =
+        load_scene(args.scene.as_deref(), args.preset.as_deref(), |o, _| {
+            checked_plan(args, format, args.steps.unwrap_or(o.steps))
+        })?;
     let job = Job {
         args,
         size,

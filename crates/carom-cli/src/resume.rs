@@ -1,7 +1,7 @@
 //! `carom resume`: continue a run from its checkpoint, bit for bit, through the same driver as
 //! `carom run`.
 
-use crate::driver::step::{frame_folder, Outputs};
+use crate::driver::step::{check_long_run, frame_folder, named_outputs, Outputs};
 use crate::driver::Labels;
 use crate::failure::Failure;
 use crate::input::{check_distinct, check_output_path, check_ranks, check_steps, set_threads};
@@ -9,7 +9,7 @@ use crate::launch::{copies_of, run_world};
 use carom_engine::Vector;
 use carom_output::checkpoint::Checkpoint;
 use carom_scene::RunSettings;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Options of `carom resume`.
 #[derive(clap::Args, Debug)]
@@ -53,18 +53,19 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
     set_threads(args.threads)?;
     check_ranks(args.ranks)?;
     check_steps("--steps", args.steps)?;
-    let outputs = [
-        ("--out", args.out.as_deref()),
-        ("--checkpoint-to", args.checkpoint_to.as_deref()),
-        ("--trajectory", args.trajectory.as_deref()),
-        ("--observe", args.observe.as_deref()),
-    ];
+    if let Some(out) = &args.out {
+        check_output_path("--out", out)?;
+    }
     let frames = args.trajectory.as_deref().and_then(frame_folder);
-    let outputs: Vec<(&str, &Path)> = outputs
-        .into_iter()
-        .chain([("--trajectory's frame folder", frames.as_deref())])
-        .filter_map(|(flag, path)| Some((flag, path?)))
-        .collect();
+    let outputs = named_outputs(
+        [
+            ("--out", args.out.as_deref()),
+            ("--checkpoint-to", args.checkpoint_to.as_deref()),
+            ("--trajectory", args.trajectory.as_deref()),
+            ("--observe", args.observe.as_deref()),
+        ],
+        frames.as_deref(),
+    );
     check_distinct(&outputs, &[])?;
     // (writing the next checkpoints over the one being read is how a long run goes on)
     let over_the_checkpoint: Vec<_> = outputs
@@ -72,14 +73,12 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
         .filter(|(flag, _)| *flag != "--checkpoint-to")
         .collect();
     check_distinct(&over_the_checkpoint, &[("checkpoint", &args.checkpoint)])?;
-    crate::driver::step::check_outputs(
+    check_long_run(
         args.checkpoint_to.as_deref().zip(args.checkpoint_every),
         args.trajectory.as_deref().zip(args.every),
         args.observe.as_deref().zip(args.every),
+        args.ranks,
     )?;
-    if args.ranks.is_some_and(|r| r > 1) && args.observe.is_some() {
-        return Err(crate::launch::refuse_split_observe());
-    }
     let shown = args.checkpoint.display().to_string();
     let bytes = carom_output::read_regular_file(&args.checkpoint)
         .map_err(|e| Failure::input(format!("{shown}: cannot read checkpoint: {e}")))?;
@@ -91,17 +90,8 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
     drop(bytes);
     let settings: RunSettings = serde_json::from_str(&cp.settings_json)
         .map_err(|e| Failure::input(format!("{shown}: damaged run settings: {e}")))?;
-    for (what, steps) in [
-        ("is at step", cp.steps_taken),
-        ("runs to step", settings.steps),
-    ] {
-        if steps > carom_scene::MAX_STEPS {
-            return Err(Failure::input(format!(
-                "{shown}: damaged checkpoint: it {what} {steps}, past the limit of {}",
-                carom_scene::MAX_STEPS
-            )));
-        }
-    }
+    carom_scene::check_stored_steps(cp.steps_taken, settings.steps)
+        .map_err(|e| Failure::input(format!("{shown}: damaged checkpoint: {e}")))?;
     if let Some(steps) = args.steps {
         if steps < cp.steps_taken {
             return Err(Failure::input(format!(
@@ -122,10 +112,6 @@ pub fn resume(args: &ResumeArgs) -> Result<(), Failure> {
             ..settings.clone()
         },
     };
-    outputs.check()?;
-    if let Some(out) = &args.out {
-        check_output_path("--out", out)?;
-    }
     let scene = crate::input::parse_scene(&cp.scene_toml, &cp.origin)
         .map_err(|e| Failure::input(format!("{shown}: {e}")))?;
     match scene {

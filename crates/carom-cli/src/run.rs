@@ -1,6 +1,6 @@
 //! `carom run` and `carom check`.
 
-use crate::driver::step::{frame_folder, Outputs};
+use crate::driver::step::{check_long_run, frame_folder, named_outputs, Outputs};
 use crate::driver::Labels;
 use crate::failure::Failure;
 use crate::input::{
@@ -86,7 +86,7 @@ pub enum BroadPhaseArg {
 pub fn check(path: &Path) -> Result<(), Failure> {
     // (RAYON_NUM_THREADS, which the scene's fill would start its threads by)
     set_threads(None)?;
-    let (scene, _, _) = load_scene(Some(path), None, |_, _| Ok(()))?;
+    let (scene, _, _, ()) = load_scene(Some(path), None, |_, _| Ok(()))?;
     let (n, world_check) = match &scene {
         AnyScene::Two(s) => (s.particles.len(), s.build_world().map(|_| ())),
         AnyScene::Three(s) => (s.particles.len(), s.build_world().map(|_| ())),
@@ -109,18 +109,16 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
     if let Some(out) = &args.out {
         check_output_path("--out", out)?;
     }
-    let outputs = [
-        ("--out", args.out.as_deref()),
-        ("--checkpoint", args.checkpoint.as_deref()),
-        ("--trajectory", args.trajectory.as_deref()),
-        ("--observe", args.observe.as_deref()),
-    ];
     let frames = args.trajectory.as_deref().and_then(frame_folder);
-    let outputs: Vec<(&str, &Path)> = outputs
-        .into_iter()
-        .chain([("--trajectory's frame folder", frames.as_deref())])
-        .filter_map(|(flag, path)| Some((flag, path?)))
-        .collect();
+    let outputs = named_outputs(
+        [
+            ("--out", args.out.as_deref()),
+            ("--checkpoint", args.checkpoint.as_deref()),
+            ("--trajectory", args.trajectory.as_deref()),
+            ("--observe", args.observe.as_deref()),
+        ],
+        frames.as_deref(),
+    );
     let inputs: Vec<(&str, &Path)> = args
         .scene
         .as_deref()
@@ -128,15 +126,13 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
         .into_iter()
         .collect();
     check_distinct(&outputs, &inputs)?;
-    crate::driver::step::check_outputs(
+    check_long_run(
         args.checkpoint.as_deref().zip(args.checkpoint_every),
         args.trajectory.as_deref().zip(args.every),
         args.observe.as_deref().zip(args.every),
+        args.ranks,
     )?;
-    if args.ranks.is_some_and(|r| r > 1) && args.observe.is_some() {
-        return Err(crate::launch::refuse_split_observe());
-    }
-    let (scene, origin, text) = load_scene(
+    let (scene, origin, text, ()) = load_scene(
         args.scene.as_deref(),
         args.preset.as_deref(),
         |o, origin| {
@@ -182,7 +178,6 @@ fn run_scene<V: Vector>(
             cells: args.cells.clone(),
         },
     };
-    outputs.check()?;
     let name = scene.name.clone();
     let steps = scene.steps;
     let run = Labels {

@@ -22,7 +22,7 @@ pub use error::SceneError;
 pub use outline::{outline, Outline};
 pub use overrides::{check_cells, OverrideError, RunSettings};
 pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
-pub use state::{check_remembered, check_state, MAX_STATE_MAGNITUDE};
+pub use state::{check_remembered, check_state, check_stored_steps, MAX_STATE_MAGNITUDE};
 
 use carom_engine::glam::{DVec2, DVec3};
 use carom_engine::periodic::shortest_period;

@@ -35,6 +35,13 @@ pub fn thread_limit() -> usize {
     (8 * cores()).max(64)
 }
 
+/// The thread count `RAYON_NUM_THREADS` asks for, if it asks for one: rayon reads it itself,
+/// and takes 0 or anything but a number as one thread per core.
+pub fn threads_from_environment() -> Option<usize> {
+    let value = std::env::var("RAYON_NUM_THREADS").ok()?;
+    value.trim().parse::<usize>().ok().filter(|&n| n > 0)
+}
+
 /// Cores this process may use (1 when the system does not say).
 pub fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())

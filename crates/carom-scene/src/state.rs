@@ -2,7 +2,7 @@
 //! checkpoint, whose checksum says that its bytes arrived as written, not that a hand (or
 //! another program) wrote sane values into them.
 
-use crate::{MAX_MAGNITUDE, MIN_POSITIVE};
+use crate::{MAX_MAGNITUDE, MAX_STEPS, MIN_POSITIVE};
 use carom_engine::{ContactImpulses, Particles, Tally, Vector};
 
 /// The largest position or velocity component a state may hold: a run may carry particles
@@ -41,6 +41,17 @@ pub fn check_state<V: Vector>(particles: &Particles<V>) -> Result<(), String> {
                     "particle {id}: {what} {x:?} is not within {MIN_POSITIVE:e}..={MAX_MAGNITUDE:e}"
                 ));
             }
+        }
+    }
+    Ok(())
+}
+
+/// Checks a checkpoint's step counts, the step it is at and the one its run goes to, against
+/// [`MAX_STEPS`] (a run of 10^18 steps ran until killed).
+pub fn check_stored_steps(steps_taken: u64, run_steps: u64) -> Result<(), String> {
+    for (what, steps) in [("is at step", steps_taken), ("runs to step", run_steps)] {
+        if steps > MAX_STEPS {
+            return Err(format!("it {what} {steps}, past the limit of {MAX_STEPS}"));
         }
     }
     Ok(())

@@ -76,32 +76,43 @@ pub struct Outputs {
     pub settings: RunSettings,
 }
 
-impl Outputs {
-    /// Checks the paths and intervals before any work (see [`check_outputs`]).
-    pub fn check(&self) -> Result<(), Failure> {
-        check_outputs(
-            as_flags(&self.checkpoint),
-            as_flags(&self.trajectory),
-            as_flags(&self.observe),
-        )
-    }
-}
-
-fn as_flags(output: &Option<(PathBuf, u64)>) -> Option<(&Path, u64)> {
-    output
-        .as_ref()
-        .map(|(path, every)| (path.as_path(), *every))
-}
-
 /// The folder a VTK trajectory (`.pvd`) writes its frames in (see [`vtk::Series`]); `None`
 /// for a CSV trajectory.
 pub fn frame_folder(trajectory: &Path) -> Option<PathBuf> {
     vtk::is_pvd(trajectory).then(|| trajectory.with_extension(""))
 }
 
+/// Every output of a run, `(flag, path)`, with the folder a VTK trajectory writes its frames
+/// in (see [`frame_folder`]): what [`crate::input::check_distinct`] compares.
+pub fn named_outputs<'a>(
+    outputs: [(&'a str, Option<&'a Path>); 4],
+    frames: Option<&'a Path>,
+) -> Vec<(&'a str, &'a Path)> {
+    outputs
+        .into_iter()
+        .chain([("--trajectory's frame folder", frames)])
+        .filter_map(|(flag, path)| Some((flag, path?)))
+        .collect()
+}
+
+/// [`check_outputs`], and `--observe` refused in a run split over `ranks` (see
+/// `launch::refuse_split_observe`), from the flags alone.
+pub fn check_long_run(
+    checkpoint: Option<(&Path, u64)>,
+    trajectory: Option<(&Path, u64)>,
+    observe: Option<(&Path, u64)>,
+    ranks: Option<usize>,
+) -> Result<(), Failure> {
+    check_outputs(checkpoint, trajectory, observe)?;
+    if ranks.is_some_and(|r| r > 1) && observe.is_some() {
+        return Err(crate::launch::refuse_split_observe());
+    }
+    Ok(())
+}
+
 /// Checks the long-run outputs' paths and intervals, `(path, every)` each, from the flags
 /// alone: before the scene is read, whose fill may take seconds.
-pub fn check_outputs(
+fn check_outputs(
     checkpoint: Option<(&Path, u64)>,
     trajectory: Option<(&Path, u64)>,
     observe: Option<(&Path, u64)>,
