@@ -472,7 +472,8 @@ impl World {
     /// (granular, `sum m |v - u|^2 / (d N)`, energy units), `collisions` (int: particle-
     /// particle impacts since the first reading), `pressure` (kinetic plus collisional
     /// virial, averaged over the interval since the previous reading; NaN without a domain)
-    /// and `max_overlap` (the deepest overlap at this step, a fraction of the smaller radius).
+    /// and `max_overlap` (the deepest overlap at this step over every pair, a fraction of the
+    /// smaller radius: `deepest_overlap()`).
     ///
     /// Each call closes the pressure's interval and the first one starts the counts: calling
     /// it at step 0 and after every `step(K)` gives the CLI's rows, bit for bit.

@@ -57,7 +57,7 @@ pub struct RunArgs {
     /// Write the observables to this CSV, a row at the start and one every `--every` steps:
     /// `step,time,kinetic_energy,potential_energy,temperature,collisions,pressure,max_overlap`
     /// (granular temperature; collisions since the start; virial pressure over the interval
-    /// since the previous row; deepest overlap as a fraction of the smaller radius; see
+    /// since the previous row; deepest overlap over every pair, as a fraction of the smaller radius; see
     /// docs/validation.md). Not in split runs (`--ranks`, `mpirun`).
     #[arg(long, requires = "every")]
     pub observe: Option<PathBuf>,

@@ -45,7 +45,8 @@ pub struct Observables {
     /// Pressure over the interval since the previous reading (the kinetic part alone when no
     /// time has passed since it); NaN without a domain to take the volume of.
     pub pressure: f64,
-    /// The deepest overlap at this step, as a fraction of the smaller radius.
+    /// The deepest overlap at this step over every pair (see [`crate::World::deepest_overlap`]),
+    /// as a fraction of the smaller radius.
     pub max_overlap: f64,
 }
 

@@ -110,6 +110,31 @@ fn a_reading_reports_the_state_and_restarts_the_pressure_interval() {
     assert!((reading.pressure - expected).abs() < 1e-9 * expected);
 }
 
+/// A disc struck into a third one it had no contact with (beyond its reach where the step
+/// started: the lecture's step finds that pair overlapping on the next step) leaves the step
+/// deep in it. The step's own measure covers its contacts only; a reading covers every pair.
+#[test]
+fn a_reading_measures_the_overlap_over_every_pair_not_only_the_steps_contacts() {
+    // A at -1.99 moving at 10 strikes B at rest (r = 1, k = 1: they swap speeds); B moves
+    // 10 x 0.1 = 1 into C at rest at 2.5: 0.5 of r deep at the end of the step.
+    let mut world = World::builder()
+        .dt(0.1)
+        .restitution(1.0)
+        .particle(DVec2::new(-1.99, 0.0), DVec2::new(10.0, 0.0), 1.0, 1.0)
+        .particle(DVec2::ZERO, DVec2::ZERO, 1.0, 1.0)
+        .particle(DVec2::new(2.5, 0.0), DVec2::ZERO, 1.0, 1.0)
+        .build()
+        .unwrap();
+    world.observe();
+    let stats = world.step();
+    assert!(stats.max_overlap < 0.01, "{stats:?}");
+    let reading = world.observe();
+    assert!((reading.max_overlap - 0.5).abs() < 0.02, "{reading:?}");
+    assert_eq!(reading.max_overlap, world.deepest_overlap());
+    // (the next step finds it, as the lecture's detection does)
+    assert_eq!(world.step().found_overlap, reading.max_overlap);
+}
+
 /// Henderson's (1975) equation of state for hard disks: `Z = (1 + eta^2 / 8) / (1 - eta)^2`.
 fn henderson(eta: f64) -> f64 {
     (1.0 + eta * eta / 8.0) / (1.0 - eta).powi(2)

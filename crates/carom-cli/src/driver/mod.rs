@@ -72,7 +72,6 @@ pub fn finish<V: Vector>(
         interrupt::write_whole(out, |w| carom_output::write_state_csv(world.particles(), w))
             .map_err(|e| Failure::write(out, e))?;
     }
-    // (before the search for the end's overlap lays the cells out for the radii alone)
     let grid_cells = world.grid_cells();
     // (over every pair, not only the last step's contacts; not for a run of no steps, whose
     // summary reports no overlap)

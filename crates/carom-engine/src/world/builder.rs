@@ -245,7 +245,7 @@ impl<V: Vector> WorldBuilder<V> {
             sorter: Sorter::default(),
             steps,
             tally: self.tally,
-            last_overlap: None,
+            step_cells: None,
             found_overlap: 0.0,
             retakes: Default::default(),
             step_start: Default::default(),

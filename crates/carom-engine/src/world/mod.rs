@@ -151,8 +151,10 @@ pub struct World<V: Vector> {
     steps: u64,
     /// The observables' running sums (see [`crate::observe`]).
     tally: Tally,
-    /// The last step's [`StepStats::max_overlap`] (`None` before the first step).
-    last_overlap: Option<f64>,
+    /// The grid cells the steps' search last laid out (`None` before the first search, and
+    /// without a grid): what [`World::grid_cells`] reports, whatever a search between steps
+    /// ([`World::deepest_overlap`]) laid out since.
+    step_cells: Option<[usize; 3]>,
     /// This step's [`StepStats::found_overlap`].
     found_overlap: f64,
     /// What a step taken again needs (see `solver::escape`).
@@ -449,13 +451,13 @@ impl<V: Vector> World<V> {
         self.broad_phase.name()
     }
 
-    /// Grid cells per axis as the last search laid them out (a step's, or
-    /// [`World::deepest_overlap`]'s, which fits them to the radii alone), if the broad phase
-    /// is a grid and has searched. Cells derived from the particles (no
+    /// Grid cells per axis as the last step's search laid them out, if the broad phase is a
+    /// grid and a step has searched (a search between steps, such as
+    /// [`World::deepest_overlap`]'s, which fits them to the radii alone, is not reported). Cells derived from the particles (no
     /// [`WorldConfig::grid_cells`]) are fitted to each step's reaches, so they may change from
     /// step to step.
     pub fn grid_cells(&self) -> Option<[usize; 3]> {
-        self.broad_phase.cells()
+        self.step_cells
     }
 
     /// Total kinetic energy, summed in id order.
@@ -497,10 +499,9 @@ impl<V: Vector> World<V> {
     /// the previous call, which this call closes. The first call starts the sums (collisions
     /// count from it; its pressure is the kinetic part alone).
     pub fn observe(&mut self) -> Observables {
-        let max_overlap = match self.last_overlap {
-            Some(overlap) => overlap,
-            None => self.deepest_overlap(),
-        };
+        // (over every pair: a step's own measure covers only its contact candidates, and a
+        // pair that a collision pushed together from beyond them is found by the next step)
+        let max_overlap = self.deepest_overlap();
         let volume = self
             .config
             .domain

@@ -64,6 +64,7 @@ impl<V: Vector> Phases for World<V> {
         }
         let within_reach = self.find_pairs(parallel);
         self.phase_times.bin += self.broad_phase.take_bin_time();
+        self.step_cells = self.broad_phase.cells();
         match sleep {
             Some(settings) => {
                 // (rest times from the first step that may sleep on: see `World::rest`)
@@ -251,7 +252,6 @@ impl<V: Vector> Phases for World<V> {
             self.tally
                 .add_step(self.config.dt, collisions, virial, thermal);
         }
-        self.last_overlap = Some(max_overlap);
         // Wrapped last: the rest times above compare where the step started and ended.
         if let (Some(p), false) = (&self.periodic, self.all_asleep) {
             periodic::wrap_all(p, self.parallel(), &mut self.store.position);
