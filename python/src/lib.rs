@@ -91,6 +91,8 @@ fn resume(py: Python<'_>, checkpoint_path: PathBuf) -> PyResult<World> {
         .map_err(|e| PyValueError::new_err(format!("{shown}: {e}")))?;
     let settings: carom_scene::RunSettings = serde_json::from_str(&cp.settings_json)
         .map_err(|e| PyValueError::new_err(format!("{shown}: damaged run settings: {e}")))?;
+    // (the fill places its particles on the pool)
+    start_threads()?;
     let scene = carom_scene::parse(&cp.scene_toml, &cp.origin)
         .map_err(|e| scene_error(py, format!("{shown}: {e}"), &e.origin, e.field.as_deref()))?;
     let (name, world) = match scene {

@@ -111,6 +111,8 @@ impl World {
 
 /// Builds the world of `text` (from `origin`) as `carom run` does.
 pub(crate) fn build(py: Python<'_>, text: String, origin: String) -> PyResult<World> {
+    // (the fill places its particles on the pool)
+    start_threads()?;
     let scene = carom_scene::parse(&text, &origin)
         .map_err(|e| scene_error(py, e.to_string(), &e.origin, e.field.as_deref()))?;
     let (name, steps) = match &scene {
@@ -279,7 +281,7 @@ impl World {
                 "n: the number of steps must be >= 0, got {n}"
             )));
         }
-        check_thread_environment()?;
+        start_threads()?;
         let mut guard = self.lock()?;
         let state: &mut State = &mut guard;
         let taken = with_world!(&state.world, w => w.steps_taken());
@@ -625,14 +627,16 @@ fn check_not_the_scene(path: &std::path::Path, meta: &Meta) -> PyResult<()> {
 }
 
 /// Refuses a `RAYON_NUM_THREADS` above the limit `carom` refuses it at (see
-/// `carom_scene::machine::thread_limit`), before the first parallel step starts that many.
-fn check_thread_environment() -> PyResult<()> {
+/// `carom_scene::machine::thread_limit`), then starts the thread pool if it is not running
+/// (ValueError; RuntimeError when the machine cannot start the threads, which would otherwise
+/// panic inside the first parallel phase): before a fill or a step can start them.
+pub(crate) fn start_threads() -> PyResult<()> {
     let limit = carom_scene::machine::thread_limit();
     match carom_scene::machine::threads_from_environment() {
         Some(n) if n > limit => Err(PyValueError::new_err(format!(
             "RAYON_NUM_THREADS: {n} is more than the limit of {limit} on this machine (8 per \
              core, at least 64)"
         ))),
-        _ => Ok(()),
+        _ => carom_scene::machine::start_thread_pool(None).map_err(PyRuntimeError::new_err),
     }
 }

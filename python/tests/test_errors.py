@@ -278,3 +278,34 @@ def test_busy_world_and_unusable_calls_do_not_change_state(world):
         with pytest.raises(ValueError):
             bad()
     assert_same_state(world, twin)
+
+
+THREADS_THAT_CANNOT_START = """
+import carom
+for attempt in range(2):
+    try:
+        carom.preset("lecture_100_k05")
+    except RuntimeError as e:
+        print("RuntimeError:", e)
+"""
+
+
+def test_threads_that_cannot_start_raise_runtime_error_not_a_panic():
+    # (no room for the worker threads' stacks, which RUST_MIN_STACK sizes: as a low
+    # `ulimit -u`, the pool cannot start; rayon tries once a process, so both attempts fail)
+    import subprocess
+    import sys
+
+    env = dict(os.environ, RUST_MIN_STACK="1000000000000000")
+    done = subprocess.run(
+        [sys.executable, "-c", THREADS_THAT_CANNOT_START],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert len(lines) == 2, done.stdout
+    assert all("cannot start the worker threads" in line for line in lines), lines
+    assert "panicked" not in done.stderr, done.stderr

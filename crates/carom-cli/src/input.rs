@@ -3,7 +3,7 @@
 //! refusal is a [`Failure::Input`] (exit status 2) that names the flag.
 
 use crate::failure::Failure;
-use carom_engine::Vector;
+use carom_engine::{BroadPhaseKind, Vector};
 use carom_scene::{AnyScene, Outline, OverrideError, Scene, MAX_STEPS};
 use std::path::Path;
 
@@ -57,6 +57,15 @@ pub fn check_overrides(
         let dimensions = outline.dimensions;
         let cells = cells.to_vec();
         return Err(overridden(OverrideError::PerAxis { dimensions, cells }));
+    }
+    let kind = match broadphase {
+        Some("grid") => BroadPhaseKind::Grid,
+        Some("brute") => BroadPhaseKind::Brute,
+        Some("hash") => BroadPhaseKind::Hash,
+        _ => outline.broad_phase,
+    };
+    if cells.is_some() && kind != BroadPhaseKind::Grid {
+        return Err(overridden(OverrideError::WithoutGrid));
     }
     if broadphase == Some("hash") && outline.periodic {
         return Err(Failure::input(format!(
@@ -116,17 +125,13 @@ pub fn check_threads(threads: Option<usize>) -> Result<(), Failure> {
     }
 }
 
-/// Sets the global thread count (`--threads`, else `RAYON_NUM_THREADS`), refusing 0 and more
-/// than [`thread_limit`].
+/// Starts the global thread pool (`--threads`, else `RAYON_NUM_THREADS`, else one per core),
+/// refusing 0 and more than [`thread_limit`], before any parallel work; a machine that cannot
+/// start the threads is an error, not a panic (see
+/// [`carom_scene::machine::start_thread_pool`]).
 pub fn set_threads(threads: Option<usize>) -> Result<(), Failure> {
     check_threads(threads)?;
-    let Some(threads) = threads else {
-        return Ok(());
-    };
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build_global()
-        .map_err(|e| Failure::runtime(format!("cannot start {threads} threads: {e}")))
+    carom_scene::machine::start_thread_pool(threads).map_err(Failure::runtime)
 }
 
 /// `--ranks`: 1 to [`thread_limit`] (each rank is a thread with a whole copy of the world).

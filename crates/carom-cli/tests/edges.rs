@@ -319,6 +319,23 @@ fn flags_are_checked_before_the_scene_is_filled() {
         &[],
         &["--cells", "2D"],
     );
+    // (cells for a broad phase without them: asked for, or the default of a box without walls)
+    let brute = [
+        "run",
+        "full.toml",
+        "--cells",
+        "5,5",
+        "--broadphase",
+        "brute",
+    ];
+    refused_in(d, &brute, &[], &["--cells", "only the grid"]);
+    std::fs::write(
+        d.join("open.toml"),
+        scene.replace("walls = true", "walls = false"),
+    )
+    .unwrap();
+    let hash = ["run", "open.toml", "--cells", "5,5"];
+    refused_in(d, &hash, &[], &["--cells", "only the grid"]);
     let periodic = scene.replace("walls = true", "periodic = [true, true]");
     std::fs::write(d.join("wraps.toml"), periodic).unwrap();
     let hash = ["run", "wraps.toml", "--broadphase", "hash"];
@@ -330,4 +347,28 @@ fn flags_are_checked_before_the_scene_is_filled() {
         &[],
         &["--every"],
     );
+}
+
+/// A machine that cannot start the worker threads (here: no room for their stacks, which
+/// `RUST_MIN_STACK` sizes; a low `ulimit -u` does the same) gets one message and exit status
+/// 1 from every command that steps, not a panic in the first parallel phase, and no output.
+#[test]
+fn threads_that_cannot_start_are_an_error_not_a_panic() {
+    let dir = with_scene();
+    let huge_stacks = [("RUST_MIN_STACK", "1000000000000000")];
+    let commands: [&[&str]; 4] = [
+        &["run", "scene.toml", "--steps", "3", "--out", "end.csv"],
+        &["run", "scene.toml", "--steps", "3", "--threads", "2"],
+        &["check", "scene.toml"],
+        &["run", "scene.toml", "--steps", "3", "--ranks", "2"],
+    ];
+    for args in commands {
+        let output = run_in(dir.path(), args, &huge_stacks);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains("threads: "), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{args:?}: {stderr}");
+    }
+    assert_eq!(refusals::listing(dir.path()), ["scene.toml"]);
 }

@@ -42,6 +42,37 @@ pub fn threads_from_environment() -> Option<usize> {
     value.trim().parse::<usize>().ok().filter(|&n| n > 0)
 }
 
+/// Starts rayon's global pool, which every parallel phase runs on: `threads` workers, else
+/// as many as `RAYON_NUM_THREADS` or the cores say (rayon's own default). Started on demand,
+/// inside the first parallel phase, a pool whose threads the machine cannot start (a low
+/// `ulimit -u`, no room for their stacks) panics there; started here, it gives an error to
+/// report. A pool already running is kept when no count is asked for. Rayon tries its pool
+/// once a process, so after a failure every call fails the same way.
+pub fn start_thread_pool(threads: Option<usize>) -> Result<(), String> {
+    static FAILURE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    if let Some(failure) = FAILURE.get() {
+        return Err(failure.clone());
+    }
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(threads) = threads {
+        builder = builder.num_threads(threads);
+    }
+    let started = builder.build_global();
+    match (started, threads) {
+        (Ok(()), _) => Ok(()),
+        // (running already: no I/O error behind it)
+        (Err(e), None) if std::error::Error::source(&e).is_none() => Ok(()),
+        (Err(e), threads) => {
+            let count = threads.map_or("the worker".to_string(), |n| n.to_string());
+            let failure = format!("cannot start {count} threads: {e}");
+            if std::error::Error::source(&e).is_some() {
+                let _ = FAILURE.set(failure.clone());
+            }
+            Err(failure)
+        }
+    }
+}
+
 /// Cores this process may use (1 when the system does not say).
 pub fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())

@@ -1,13 +1,15 @@
 //! What a scene's text says before its particles are placed: enough for a command to check
-//! its flags against the scene (`--cells` per axis, `--broadphase hash` on periodic axes,
+//! its flags against the scene (`--cells` per axis and only for a grid, `--broadphase hash`
+//! on periodic axes,
 //! `carom render`'s frames against the steps) before a fill that may take seconds.
 
 use crate::raw::RawScene;
 use crate::{steps_of, Ctx, SceneError};
 use carom_engine::glam::{DVec2, DVec3};
-use carom_engine::Vector;
+use carom_engine::{BroadPhaseKind, Vector};
 
-/// A scene's dimensions, steps and periodic axes, read without placing its particles.
+/// A scene's dimensions, steps, periodic axes and broad phase, read without placing its
+/// particles.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Outline {
     /// 2 or 3.
@@ -16,6 +18,8 @@ pub struct Outline {
     pub steps: u64,
     /// Whether any axis wraps around (`[domain] periodic`).
     pub periodic: bool,
+    /// The broad phase the scene asks for, or its default (see `[broadphase] kind`).
+    pub broad_phase: BroadPhaseKind,
 }
 
 /// The [`Outline`] of scene text; the errors are those [`crate::parse`] gives for these
@@ -42,10 +46,13 @@ fn outline_in<V: Vector>(ctx: &Ctx, raw: &RawScene) -> Result<Outline, SceneErro
         Some(value) => ctx.periodic::<V>(value)?.iter().any(|&a| a),
         None => false,
     };
+    let walls = raw.domain.as_ref().is_some_and(|d| d.walls);
+    let (broad_phase, _) = crate::sections::broad_phase::<V>(ctx, raw, walls, periodic)?;
     Ok(Outline {
         dimensions: V::DIM,
         steps: steps_of(ctx, raw)?,
         periodic,
+        broad_phase,
     })
 }
 
@@ -63,9 +70,13 @@ mod tests {
             dimensions: 3,
             steps: 7,
             periodic: true,
+            broad_phase: BroadPhaseKind::Grid,
         };
         assert_eq!(outline(text, "t").unwrap(), expected);
         assert!(crate::parse(text, "t").is_err());
+        // (no walls: the unbounded hash by default)
+        let open = outline("dimensions = 2\ndt = 0.01\n", "t").unwrap();
+        assert_eq!(open.broad_phase, BroadPhaseKind::Hash);
         let e = outline("dimensions = 4\ndt = 0.01\n", "t").unwrap_err();
         assert_eq!(e.field.as_deref(), Some("dimensions"));
     }
