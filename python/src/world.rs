@@ -256,8 +256,10 @@ impl World {
     /// (int), `capped_steps` (int: steps whose velocity sweeps stopped at their cap),
     /// `retaken_steps` (int: steps taken again because a push drove a particle beyond its
     /// reach), `collisions` (int: particle-particle impacts), `max_overlap` (the deepest
-    /// overlap of any state the steps passed through, a fraction of the smaller radius; see
-    /// `deepest_overlap` for the state as it is), `asleep` (int: particles asleep in the
+    /// overlap, a fraction of the smaller radius, over every pair of each state a step started
+    /// from and the last step's own contacts at its end: a pair the last step's collisions
+    /// pushed together from beyond its contacts is in `deepest_overlap()`, which searches every
+    /// pair of the state as it is), `asleep` (int: particles asleep in the
     /// last step) and `pushing` (int: particle pairs that pushed each other in the last step,
     /// impacts and contacts carrying weight, overlapping or a hair apart).
     #[pyo3(signature = (n = None), text_signature = "($self, n=1)")]
