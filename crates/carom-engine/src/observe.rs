@@ -130,6 +130,34 @@ pub fn temperature<V: Vector>(particles: &Particles<V>) -> f64 {
     temperature_of(|| crate::diagnostics::masses_with(particles, &particles.velocity))
 }
 
+/// Kinetic energy, potential energy (under `gravity`) and [`temperature`] of the `(mass,
+/// velocity, position)` triples that `items` gives, in their order (it is called once per
+/// pass): each summed as [`crate::diagnostics::kinetic_energy_of`],
+/// [`crate::diagnostics::potential_energy_of`] and [`temperature_of`] sum it, the same bits
+/// (every sum from `-0.0`, as `Iterator::sum` starts), in two passes instead of six. A world
+/// reads its particles in id order, one gather a pass: at 10^6 discs a reading took 29 ms of
+/// such passes.
+pub(crate) fn energies_and_temperature_of<V: Vector, I: Iterator<Item = (f64, V, V)>>(
+    items: impl Fn() -> I,
+    gravity: V,
+) -> (f64, f64, f64) {
+    let (mut n, mut total, mut momentum) = (0usize, -0.0, V::ZERO);
+    let (mut kinetic, mut potential) = (-0.0, -0.0);
+    for (m, v, x) in items() {
+        n += 1;
+        total += m;
+        momentum += v * m;
+        kinetic += 0.5 * m * v.length_squared();
+        potential += -m * gravity.dot(x);
+    }
+    if n == 0 {
+        return (kinetic, potential, 0.0);
+    }
+    let mean = momentum * (1.0 / total);
+    let sum = items().fold(-0.0, |sum, (m, v, _)| sum + m * (v - mean).length_squared());
+    (kinetic, potential, sum / (V::DIM * n) as f64)
+}
+
 /// [`temperature`] of the `(mass, velocity)` pairs that `items` gives, in their order (it is
 /// called once per pass).
 pub(crate) fn temperature_of<V: Vector, I: Iterator<Item = (f64, V)>>(

@@ -135,6 +135,51 @@ fn a_reading_measures_the_overlap_over_every_pair_not_only_the_steps_contacts() 
     assert_eq!(world.step().found_overlap, reading.max_overlap);
 }
 
+/// A reading's energies and temperature are the very bits of the world's own sums
+/// (`kinetic_energy`, `potential_energy`, `observe::temperature`), which it takes in fewer
+/// passes; an empty world's too.
+#[test]
+fn a_reading_sums_the_energies_and_temperature_as_the_world_does() {
+    let mut rng = Lcg::new(7);
+    let mut builder = World::builder()
+        .dt(1.0 / 60.0)
+        .gravity(DVec2::new(0.3, -9.81))
+        .restitution(0.5)
+        .domain(Aabb::new(DVec2::splat(-40.0), DVec2::splat(40.0)).unwrap())
+        .walls(0.5);
+    for i in 0..900 {
+        let x = DVec2::new((i % 30) as f64 * 2.5 - 37.0, (i / 30) as f64 * 2.5 - 37.0);
+        let v: DVec2 = rng.vector(-5.0, 5.0);
+        builder = builder.particle(x, v, 1.0, 0.5 + (i % 7) as f64);
+    }
+    let mut world = builder.build().unwrap();
+    for _ in 0..40 {
+        world.step();
+    }
+    let reading = world.observe();
+    assert_eq!(
+        reading.kinetic_energy.to_bits(),
+        world.kinetic_energy().to_bits()
+    );
+    assert_eq!(
+        reading.potential_energy.to_bits(),
+        world.potential_energy().to_bits()
+    );
+    let temperature = carom_engine::observe::temperature(world.particles());
+    assert_eq!(reading.temperature.to_bits(), temperature.to_bits());
+    let mut empty = World::<DVec2>::builder().dt(0.01).build().unwrap();
+    let nothing = empty.observe();
+    assert_eq!(
+        nothing.kinetic_energy.to_bits(),
+        empty.kinetic_energy().to_bits()
+    );
+    assert_eq!(
+        nothing.potential_energy.to_bits(),
+        empty.potential_energy().to_bits()
+    );
+    assert_eq!(nothing.temperature, 0.0);
+}
+
 /// Henderson's (1975) equation of state for hard disks: `Z = (1 + eta^2 / 8) / (1 - eta)^2`.
 fn henderson(eta: f64) -> f64 {
     (1.0 + eta * eta / 8.0) / (1.0 - eta).powi(2)

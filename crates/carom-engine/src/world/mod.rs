@@ -507,12 +507,19 @@ impl<V: Vector> World<V> {
             .domain
             .map(|d| (0..V::DIM).map(|a| d.extent().get(a)).product());
         let thermal = observe::thermal_sum(&self.store.mass, &self.store.velocity);
+        let (p, n) = (&self.store, self.store.len());
+        let by_id = || {
+            (self.slots[..n].iter().map(|&s| s as usize))
+                .map(|s| (p.mass[s], p.velocity[s], p.position[s]))
+        };
+        let (kinetic_energy, potential_energy, temperature) =
+            observe::energies_and_temperature_of(by_id, self.config.gravity);
         let reading = Observables {
             step: self.steps,
             time: self.time(),
-            kinetic_energy: self.kinetic_energy(),
-            potential_energy: self.potential_energy(),
-            temperature: observe::temperature_of(|| self.masses_by_id_with(&self.store.velocity)),
+            kinetic_energy,
+            potential_energy,
+            temperature,
             collisions: self.tally.collisions,
             pressure: self.tally.pressure(thermal, V::DIM, volume),
             max_overlap,
