@@ -1,7 +1,9 @@
 //! What this machine says about itself through `/proc` (Linux): total memory, this process's
 //! peak resident memory and the CPU's model name. The one place carom reads `/proc`: the scene
 //! loader (fills that cannot fit in memory) and the command line (`carom bench`, `carom soak`)
-//! both ask here. Elsewhere every answer is `None`.
+//! both ask here. Elsewhere every answer is `None`. Also what the machine allows of threads:
+//! their limit, `RAYON_NUM_THREADS`, and the start of the pool the command line and the Python
+//! module step on.
 
 /// A `/proc` file's line `KEY: number ...` (e.g. `MemTotal:       23998640 kB`): the number.
 fn field(file: &str, key: &str) -> Option<u64> {
