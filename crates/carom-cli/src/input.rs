@@ -4,7 +4,7 @@
 
 use crate::failure::Failure;
 use carom_engine::{BroadPhaseKind, Vector};
-use carom_scene::{AnyScene, Outline, OverrideError, Scene, MAX_STEPS};
+use carom_scene::{AnyScene, Outline, Scene, MAX_STEPS};
 use std::path::Path;
 
 /// The TOML text of a scene file, or of a preset (the default one when neither is given), and
@@ -45,29 +45,18 @@ pub fn load_scene<T>(
     Ok((parsed, origin, text, checked))
 }
 
-/// Refuses `--broadphase` and `--cells` that the scene of `outline` cannot take: cells not
-/// one per axis, the unbounded hash on periodic axes (the rest is checked with the scene,
-/// see [`apply_overrides`]).
+/// Refuses `--broadphase` and `--cells` that the scene of `outline` cannot take (see
+/// [`carom_scene::overridden_broad_phase`]), and the unbounded hash on periodic axes, before
+/// the scene's fill.
 pub fn check_overrides(
     (outline, origin): (&Outline, &str),
     broadphase: Option<&str>,
     cells: Option<&[usize]>,
 ) -> Result<(), Failure> {
-    if let Some(cells) = cells.filter(|c| c.len() != outline.dimensions) {
-        let dimensions = outline.dimensions;
-        let cells = cells.to_vec();
-        return Err(overridden(OverrideError::PerAxis { dimensions, cells }));
-    }
-    let kind = match broadphase {
-        Some("grid") => BroadPhaseKind::Grid,
-        Some("brute") => BroadPhaseKind::Brute,
-        Some("hash") => BroadPhaseKind::Hash,
-        _ => outline.broad_phase,
-    };
-    if cells.is_some() && kind != BroadPhaseKind::Grid {
-        return Err(overridden(OverrideError::WithoutGrid));
-    }
-    if broadphase == Some("hash") && outline.periodic {
+    let (dimensions, own) = (outline.dimensions, outline.broad_phase);
+    let kind = carom_scene::overridden_broad_phase(dimensions, own, broadphase, cells)
+        .map_err(overridden)?;
+    if kind == BroadPhaseKind::Hash && outline.periodic {
         return Err(Failure::input(format!(
             "{origin}: --broadphase: the unbounded hash does not support periodic axes, which \
              the scene has: use the grid (or brute force)"

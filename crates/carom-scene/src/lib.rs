@@ -20,7 +20,7 @@ mod walls;
 
 pub use error::SceneError;
 pub use outline::{outline, Outline};
-pub use overrides::{check_cells, OverrideError, RunSettings};
+pub use overrides::{check_cells, overridden_broad_phase, OverrideError, RunSettings};
 pub use presets::{preset, preset_names, DEFAULT_PRESET, PRESETS};
 pub use state::{check_remembered, check_state, check_stored_steps, MAX_STATE_MAGNITUDE};
 

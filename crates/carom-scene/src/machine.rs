@@ -59,20 +59,20 @@ pub fn start_thread_pool(threads: Option<usize>) -> Result<(), String> {
     if let Some(threads) = threads {
         builder = builder.num_threads(threads);
     }
-    let started = builder.build_global();
-    match (started, threads) {
-        (Ok(()), _) => Ok(()),
-        // (running already: no I/O error behind it)
-        (Err(e), None) if std::error::Error::source(&e).is_none() => Ok(()),
-        (Err(e), threads) => {
-            let count = threads.map_or("the worker".to_string(), |n| n.to_string());
-            let failure = format!("cannot start {count} threads: {e}");
-            if std::error::Error::source(&e).is_some() {
-                let _ = FAILURE.set(failure.clone());
-            }
-            Err(failure)
-        }
+    let Err(e) = builder.build_global() else {
+        return Ok(());
+    };
+    // (no I/O error behind it: the pool runs already)
+    let threads_failed = std::error::Error::source(&e).is_some();
+    if !threads_failed && threads.is_none() {
+        return Ok(());
     }
+    let count = threads.map_or("the worker".to_string(), |n| n.to_string());
+    let failure = format!("cannot start {count} threads: {e}");
+    if threads_failed {
+        let _ = FAILURE.set(failure.clone());
+    }
+    Err(failure)
 }
 
 /// Cores this process may use (1 when the system does not say).

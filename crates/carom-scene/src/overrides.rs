@@ -72,6 +72,39 @@ pub fn check_cells(cells: &[usize]) -> Result<(), OverrideError> {
     Ok(())
 }
 
+/// The broad phase a run of a `dimensions`-D scene whose own is `scene_kind` takes with
+/// `broadphase` (`brute`, `grid` or `hash`, where given), refusing `cells` that are not one
+/// whole count per axis or are given for a broad phase without cells. What a scene's
+/// overrides are checked by, from its outline before its fill (the command line) and on the
+/// scene itself ([`Scene::override_broad_phase`]).
+pub fn overridden_broad_phase(
+    dimensions: usize,
+    scene_kind: BroadPhaseKind,
+    broadphase: Option<&str>,
+    cells: Option<&[usize]>,
+) -> Result<BroadPhaseKind, OverrideError> {
+    let kind = match broadphase {
+        Some("brute") => BroadPhaseKind::Brute,
+        Some("grid") => BroadPhaseKind::Grid,
+        Some("hash") => BroadPhaseKind::Hash,
+        Some(other) => return Err(OverrideError::UnknownBroadPhase(other.to_string())),
+        None => scene_kind,
+    };
+    if let Some(cells) = cells {
+        check_cells(cells)?;
+        if cells.len() != dimensions {
+            return Err(OverrideError::PerAxis {
+                dimensions,
+                cells: cells.to_vec(),
+            });
+        }
+        if kind != BroadPhaseKind::Grid {
+            return Err(OverrideError::WithoutGrid);
+        }
+    }
+    Ok(kind)
+}
+
 impl<V: Vector> Scene<V> {
     /// Replaces the scene's broad phase with `broadphase` (`brute`, `grid` or `hash`) and its
     /// grid's cells with `cells` (one count per axis; only for the grid), where given.
@@ -80,24 +113,9 @@ impl<V: Vector> Scene<V> {
         broadphase: Option<&str>,
         cells: Option<&[usize]>,
     ) -> Result<(), OverrideError> {
-        match broadphase {
-            Some("brute") => self.config.broad_phase = BroadPhaseKind::Brute,
-            Some("grid") => self.config.broad_phase = BroadPhaseKind::Grid,
-            Some("hash") => self.config.broad_phase = BroadPhaseKind::Hash,
-            Some(other) => return Err(OverrideError::UnknownBroadPhase(other.to_string())),
-            None => {}
-        }
+        let own = self.config.broad_phase;
+        self.config.broad_phase = overridden_broad_phase(V::DIM, own, broadphase, cells)?;
         if let Some(cells) = cells {
-            check_cells(cells)?;
-            if cells.len() != V::DIM {
-                return Err(OverrideError::PerAxis {
-                    dimensions: V::DIM,
-                    cells: cells.to_vec(),
-                });
-            }
-            if self.config.broad_phase != BroadPhaseKind::Grid {
-                return Err(OverrideError::WithoutGrid);
-            }
             self.config.grid_cells = Some(cells.to_vec());
         }
         Ok(())
