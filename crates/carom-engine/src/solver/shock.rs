@@ -85,5 +85,8 @@ pub(super) fn shock<V: Vector, E: Exchange<V>>(
 /// lower particle in a shock sweep: it takes equal and opposite impulses as usual. (Lifting
 /// along `up` closes a shortfall `s` with a lift of `s / |n . up|`, at most `2 s` here; a
 /// hexagonal pile's contacts are 30 degrees from `up`. 0.3 and 0.7 both let the lecture pile
-/// come to rest later than 0.5 did.)
+/// come to rest later than 0.5 did. Lifting through a contact `theta` from `up` also slides the
+/// particle across it by `s tan(theta)`, which keeps a random pile kept awake stirring (v_rms
+/// 0.13 at step 1800); 0.85 lets it rest and holds every stack, but over 47 fill seeds the
+/// sleeping pile sank 1.5x deeper: docs/benchmarks.md, fortieth sitting.)
 const SHOCK_MIN_HEIGHT: f64 = 0.5;
