@@ -489,10 +489,13 @@ impl<V: Vector> World<V> {
     /// the sums above read, without the id-ordered copy of [`World::particles`] (48 bytes a
     /// particle in 2D, which would otherwise be the largest thing a run allocates at its end).
     fn masses_by_id_with<'a>(&'a self, values: &'a [V]) -> impl Iterator<Item = (f64, V)> + 'a {
-        let (mass, n) = (&self.store.mass, self.store.len());
-        self.slots[..n]
-            .iter()
-            .map(move |&s| (mass[s as usize], values[s as usize]))
+        let mass = &self.store.mass;
+        self.slots_by_id().map(move |s| (mass[s], values[s]))
+    }
+
+    /// Each particle's storage slot, in id order.
+    fn slots_by_id(&self) -> impl Iterator<Item = usize> + '_ {
+        self.slots[..self.store.len()].iter().map(|&s| s as usize)
     }
 
     /// The observables now (see [`crate::observe`]), with the pressure over the interval since
@@ -507,9 +510,9 @@ impl<V: Vector> World<V> {
             .domain
             .map(|d| (0..V::DIM).map(|a| d.extent().get(a)).product());
         let thermal = observe::thermal_sum(&self.store.mass, &self.store.velocity);
-        let (p, n) = (&self.store, self.store.len());
+        let p = &self.store;
         let by_id = || {
-            (self.slots[..n].iter().map(|&s| s as usize))
+            self.slots_by_id()
                 .map(|s| (p.mass[s], p.velocity[s], p.position[s]))
         };
         let (kinetic_energy, potential_energy, temperature) =
